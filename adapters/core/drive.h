@@ -1,0 +1,113 @@
+// The Drive seam: every family implements this, the server core talks only to it.
+// Lifecycle (ros2_control's, with reasons): UNCONFIGURED -> Activate -> ACTIVE -> Deactivate
+// -> INACTIVE; every failure is an absl::Status naming the drive and the cause.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "adapters/core/clock.h"
+#include "adapters/core/command.h"
+#include "adapters/core/drive_config.h"
+
+namespace drivegw {
+
+// Unified drive state (API v1 DriveState).
+enum class DriveState { kOffline, kDisabled, kReady, kEnabled, kMoving, kHoming, kFault };
+const char* ToString(DriveState s);
+
+// PLCopen function block states of a command handle.
+enum class CommandState { kBusy, kActive, kDone, kAborted, kError };
+const char* ToString(CommandState s);
+inline bool IsFinal(CommandState s) {
+  return s == CommandState::kDone || s == CommandState::kAborted || s == CommandState::kError;
+}
+
+using WallTime = std::chrono::system_clock::time_point;
+
+struct CommandInfo {
+  uint64_t id = 0;   // unique per drive, starts at 1
+  std::string kind;  // "MoveAbsolute", "Enable", ...
+  CommandState state = CommandState::kBusy;
+  std::string message;
+  WallTime created{};
+  std::optional<WallTime> ended;
+};
+
+struct NativeState {
+  uint32_t main_state = 0;
+  uint32_t sub_state = 0;
+  std::string text;
+  uint32_t status_word = 0;
+  uint32_t warn_word = 0;
+};
+
+struct Fault {
+  uint32_t code = 0;  // 0 = none
+  std::string text;
+  bool fatal = false;
+};
+
+struct DriveStatus {
+  DriveState state = DriveState::kOffline;
+  NativeState native;
+  double position_mm = 0;
+  double velocity_mm_s = 0;
+  double demand_position_mm = 0;
+  bool homed = false;
+  bool in_target = false;
+  bool motion_active = false;
+  std::vector<std::string> warnings;
+  Fault fault;
+  std::optional<CommandInfo> last_command;
+  WallTime time{};
+  uint64_t sequence = 0;  // set by DriveBase::PublishStatus
+};
+
+enum class Lifecycle { kUnconfigured, kActive, kInactive };
+
+class Drive {
+ public:
+  virtual ~Drive() = default;
+  Drive() = default;
+  Drive(const Drive&) = delete;
+  Drive& operator=(const Drive&) = delete;
+
+  virtual const DriveConfig& config() const = 0;
+  // Human-readable address of the device, e.g. "udp://127.0.0.1:49360".
+  virtual std::string endpoint() const = 0;
+
+  // Opens the transport and starts cyclic exchange. The drive may still be OFFLINE after an
+  // OK return (a drive that is switched off is a state, not an activation failure).
+  virtual absl::Status Activate() = 0;
+  // Stops cyclic exchange and closes the transport; idempotent.
+  virtual void Deactivate() = 0;
+  virtual Lifecycle lifecycle() const = 0;
+
+  // Each returns the command handle. Enable, Disable and AcknowledgeFault return when the drive
+  // reached the requested state (DONE) or failed; Home and motion commands return once the
+  // drive accepted them (ACTIVE) and end DONE/ABORTED/ERROR later (see GetCommand, status).
+  virtual absl::StatusOr<CommandInfo> Enable() = 0;
+  virtual absl::StatusOr<CommandInfo> Disable() = 0;
+  virtual absl::StatusOr<CommandInfo> Home() = 0;
+  virtual absl::StatusOr<CommandInfo> Move(const MotionCommand& cmd) = 0;
+  virtual absl::StatusOr<CommandInfo> AcknowledgeFault() = 0;
+
+  virtual absl::StatusOr<int64_t> ReadParameter(const ParameterRef& ref) = 0;
+  virtual absl::Status WriteParameter(const ParameterRef& ref, int64_t value) = 0;
+  virtual absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) = 0;
+
+  virtual DriveStatus GetStatus() const = 0;
+  virtual std::optional<CommandInfo> GetCommand(uint64_t id) const = 0;
+  // Blocks until a snapshot newer than `after_sequence` exists or `deadline` (steady clock)
+  // passes; returns the newest snapshot either way.
+  virtual DriveStatus WaitForStatus(uint64_t after_sequence,
+                                    std::chrono::steady_clock::time_point deadline) const = 0;
+};
+
+}  // namespace drivegw
