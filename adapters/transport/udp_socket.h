@@ -1,0 +1,85 @@
+// RAII IPv4 UDP socket: bind, send, poll()-based receive with time-out, and a wake-up for
+// threads blocked in Receive (linmot-linudp.md 1.1: one telegram = one datagram).
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "adapters/transport/endpoint.h"
+
+namespace drivegw::transport {
+
+struct Datagram {
+  Endpoint from;
+  std::vector<uint8_t> bytes;
+};
+
+struct UdpSocketCounters {
+  uint64_t sent = 0;            // datagrams handed to the kernel
+  uint64_t received = 0;        // datagrams returned by Receive
+  uint64_t send_errors = 0;     // SendTo failures
+  uint64_t receive_errors = 0;  // recvfrom failures other than EAGAIN/EINTR
+  uint64_t truncated = 0;       // received datagrams larger than kMaxDatagramSize (cut)
+};
+
+// Move-only; the destructor closes the socket. SendTo, Receive, Wake, Shutdown and counters()
+// may be called from different threads at the same time; moving or destroying may not overlap
+// any other call.
+class UdpSocket {
+ public:
+  static constexpr size_t kMaxDatagramSize = 65507;  // largest IPv4 UDP payload
+
+  // Binds `local` (port 0 = ephemeral) with SO_REUSEADDR, non-blocking. Errors name the address
+  // and the errno text: "udp bind 127.0.0.1:41136: Address already in use".
+  static absl::StatusOr<UdpSocket> Bind(const Endpoint& local);
+
+  UdpSocket(UdpSocket&& other) noexcept;
+  UdpSocket& operator=(UdpSocket&& other) noexcept;
+  UdpSocket(const UdpSocket&) = delete;
+  UdpSocket& operator=(const UdpSocket&) = delete;
+  ~UdpSocket();
+
+  // The bound address; the port is the one the kernel chose when Bind was given port 0.
+  const Endpoint& local_endpoint() const { return local_; }
+  uint16_t local_port() const { return local_.port; }
+
+  // One datagram to `to`. Unavailable (counted) when the kernel refuses it, e.g. a full buffer;
+  // FailedPrecondition after Shutdown.
+  absl::Status SendTo(const Endpoint& to, std::span<const uint8_t> bytes);
+
+  // Waits up to `timeout` (<= 0: just checks) for one datagram. nullopt on time-out or when
+  // Wake() was called; CancelledError once Shutdown() was called; Internal for socket errors.
+  // EINTR restarts the wait with the remaining time.
+  absl::StatusOr<std::optional<Datagram>> Receive(std::chrono::nanoseconds timeout);
+
+  // Makes one blocked (or the next) Receive return nullopt at once. Thread-safe.
+  void Wake();
+  // Releases every blocked Receive for good: Receive and SendTo fail from now on. Idempotent,
+  // thread-safe; the descriptor itself is closed by the destructor.
+  void Shutdown();
+  bool is_shut_down() const { return shut_down_.load(std::memory_order_acquire); }
+
+  UdpSocketCounters counters() const;
+
+ private:
+  UdpSocket(int fd, int wake_fd, Endpoint local) : fd_(fd), wake_fd_(wake_fd), local_(local) {}
+  void Close();
+
+  int fd_ = -1;
+  int wake_fd_ = -1;  // eventfd: readable while a wake-up is pending
+  Endpoint local_;
+  std::atomic<bool> shut_down_{false};
+  std::atomic<uint64_t> sent_{0};
+  std::atomic<uint64_t> received_{0};
+  std::atomic<uint64_t> send_errors_{0};
+  std::atomic<uint64_t> receive_errors_{0};
+  std::atomic<uint64_t> truncated_{0};
+};
+
+}  // namespace drivegw::transport
