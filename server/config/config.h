@@ -1,0 +1,49 @@
+// Gateway configuration: YAML text -> validated GatewayConfig (docs/config.md lists every key).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "adapters/core/drive_config.h"
+
+namespace drivegw::config {
+
+// Drive families the composition root can build; each new family appends its name here
+// (later: "linmot-devicenet", "trinamic", "stober").
+inline constexpr std::string_view kKnownFamilies[] = {"linmot"};
+
+// Larger inputs are refused before parsing (bounds parser work; a real config is a few KiB).
+inline constexpr size_t kMaxConfigBytes = 1 << 20;
+
+struct ListenConfig {
+  std::string grpc = "0.0.0.0:50051";
+  std::string http = "0.0.0.0:8080";
+};
+
+struct GatewayConfig {
+  ListenConfig listen;
+  std::string data_dir = "./data";
+  std::vector<DriveConfig> drives;  // empty in demo mode; the server then uses DemoDrives()
+  bool demo = true;                 // true when the config has no `drives:` key (or no file)
+  std::string source_yaml;          // the text that was parsed, verbatim
+};
+
+// Parses and validates. Every problem is an InvalidArgument whose message names the key path
+// and the limit, e.g. "drives[2].linudp.port: 70000 exceeds 65535 (line 9, column 13)";
+// several problems are joined with "; ". YAML syntax errors carry line/column. Never throws.
+absl::StatusOr<GatewayConfig> ParseConfig(
+    std::string_view yaml_text, std::span<const std::string_view> families = kKnownFamilies);
+
+// Reads and parses `path`. NotFound naming the path when the file does not exist.
+absl::StatusOr<GatewayConfig> LoadConfigFile(
+    const std::string& path, std::span<const std::string_view> families = kKnownFamilies);
+
+// The two demo LinMot drives "x1" and "x2" (family linmot, LinUDP on 127.0.0.1 ports
+// first_drive_port and first_drive_port + 1) that the server backs with embedded simulators.
+std::vector<DriveConfig> DemoDrives(uint16_t first_drive_port = 49360);
+
+}  // namespace drivegw::config
