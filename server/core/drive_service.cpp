@@ -1,0 +1,291 @@
+// DriveServiceCore: validation, unit mapping, drive calls and audit, shared by gRPC and REST.
+#include "server/core/drive_service.h"
+
+#include <chrono>
+#include <thread>
+
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "adapters/core/log.h"
+#include "google/protobuf/util/json_util.h"
+#include "server/core/convert.h"
+#include "server/core/errors.h"
+#include "server/core/validation.h"
+#include "storage/audit_log.h"
+
+namespace drivegw::server {
+namespace {
+
+constexpr double kDefaultWatchRateHz = 20;
+constexpr double kMaxWatchRateHz = 1000;
+
+std::string ToJson(const google::protobuf::Message& m) {
+  std::string out;
+  google::protobuf::util::JsonPrintOptions o;
+  o.preserve_proto_field_names = true;
+  if (!google::protobuf::util::MessageToJsonString(m, &out, o).ok()) return "{}";
+  return out;
+}
+
+// Content of a snapshot without the fields that change on every publish.
+std::string ContentKey(v1::DriveStatus s) {
+  s.clear_time();
+  s.clear_sequence();
+  return s.SerializeAsString();
+}
+
+}  // namespace
+
+DriveServiceCore::DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit)
+    : drives_(std::move(drives)), audit_(audit) {
+  for (const auto& d : drives_) by_name_[d->config().name] = d.get();
+}
+
+absl::StatusOr<Drive*> DriveServiceCore::Find(const std::string& field, const std::string& name) const {
+  if (name.empty()) return FieldError(field, "is required (\"drives/{drive}\")");
+  std::string_view id = name;
+  if (absl::StartsWith(id, "drives/")) id.remove_prefix(7);
+  if (id.empty() || absl::StrContains(id, '/')) {
+    return FieldError(field, absl::StrCat("'", name, "' is not a drive name (\"drives/{drive}\")"));
+  }
+  auto it = by_name_.find(std::string(id));
+  if (it == by_name_.end()) {
+    return absl::NotFoundError(absl::StrCat(field, ": drives/", id, " is not configured"));
+  }
+  return it->second;
+}
+
+void DriveServiceCore::Audit(const CallContext& c, const std::string& drive, const std::string& action,
+                             const google::protobuf::Message& request, const absl::Status& result) {
+  if (audit_ == nullptr) return;
+  storage::AuditEntry e;
+  e.time = std::chrono::system_clock::now();
+  e.principal = c.principal;
+  e.source_address = c.source_address;
+  e.drive = drive;
+  e.action = action;
+  e.request_json = ToJson(request);
+  e.result_code = static_cast<int>(result.code());
+  e.result_message = std::string(result.message());
+  if (absl::Status s = audit_->Append(e); !s.ok()) {
+    // The call itself already happened; an operator must look at the storage.
+    log::Error("audit_append_failed", log::Fields().Add("drive", drive).Add("action", action).Add("error", s.message()));
+  }
+}
+
+template <typename Req>
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::RunCommand(
+    const char* action, const Req& r, const CallContext& c,
+    const std::function<absl::StatusOr<CommandInfo>(Drive&)>& op) {
+  absl::StatusOr<Drive*> drive = Find("name", r.name());
+  absl::StatusOr<v1::CommandHandle> out;
+  std::string drive_name = drive.ok() ? (*drive)->config().name : r.name();
+  if (!drive.ok()) {
+    out = drive.status();
+  } else {
+    absl::StatusOr<CommandInfo> info = op(**drive);
+    if (info.ok()) {
+      out = ToProto(drive_name, *info);
+    } else {
+      out = info.status();
+    }
+  }
+  Audit(c, drive_name, action, r, out.status());
+  return out;
+}
+
+absl::StatusOr<v1::ListDrivesResponse> DriveServiceCore::ListDrives(const v1::ListDrivesRequest&, const CallContext&) {
+  v1::ListDrivesResponse resp;
+  for (const auto& d : drives_) {
+    v1::GetDriveRequest g;
+    g.set_name(DriveResourceName(d->config().name));
+    auto one = GetDrive(g, {});
+    if (one.ok()) *resp.add_drives() = *std::move(one);
+  }
+  return resp;
+}
+
+absl::StatusOr<v1::Drive> DriveServiceCore::GetDrive(const v1::GetDriveRequest& r, const CallContext&) {
+  auto drive = Find("name", r.name());
+  if (!drive.ok()) return drive.status();
+  Drive& d = **drive;
+  v1::Drive out;
+  out.set_name(DriveResourceName(d.config().name));
+  out.set_family(d.config().family);
+  out.set_endpoint(d.endpoint());
+  *out.mutable_axis() = ToProto(d.config().axis);
+  *out.mutable_status() = ToProto(d.config().name, d.GetStatus());
+  return out;
+}
+
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::Enable(const v1::EnableRequest& r, const CallContext& c) {
+  return RunCommand("Enable", r, c, [](Drive& d) { return d.Enable(); });
+}
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::Disable(const v1::DisableRequest& r, const CallContext& c) {
+  return RunCommand("Disable", r, c, [](Drive& d) { return d.Disable(); });
+}
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::Home(const v1::HomeRequest& r, const CallContext& c) {
+  return RunCommand("Home", r, c, [](Drive& d) { return d.Home(); });
+}
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::AcknowledgeFault(const v1::AcknowledgeFaultRequest& r,
+                                                                     const CallContext& c) {
+  return RunCommand("AcknowledgeFault", r, c, [](Drive& d) { return d.AcknowledgeFault(); });
+}
+
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveAbsolute(const v1::MoveAbsoluteRequest& r, const CallContext& c) {
+  return RunCommand("MoveAbsolute", r, c, [&](Drive& d) -> absl::StatusOr<CommandInfo> {
+    auto cmd = ValidateMoveAbsolute(r, d.config().axis);
+    if (!cmd.ok()) return cmd.status();
+    return d.Move(*cmd);
+  });
+}
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveRelative(const v1::MoveRelativeRequest& r, const CallContext& c) {
+  return RunCommand("MoveRelative", r, c, [&](Drive& d) -> absl::StatusOr<CommandInfo> {
+    auto cmd = ValidateMoveRelative(r, d.config().axis, d.GetStatus().demand_position_mm);
+    if (!cmd.ok()) return cmd.status();
+    return d.Move(*cmd);
+  });
+}
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveVelocity(const v1::MoveVelocityRequest& r, const CallContext& c) {
+  return RunCommand("MoveVelocity", r, c, [&](Drive& d) -> absl::StatusOr<CommandInfo> {
+    auto cmd = ValidateMoveVelocity(r, d.config().axis);
+    if (!cmd.ok()) return cmd.status();
+    return d.Move(*cmd);
+  });
+}
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::Stop(const v1::StopRequest& r, const CallContext& c) {
+  return RunCommand("Stop", r, c, [&](Drive& d) -> absl::StatusOr<CommandInfo> {
+    auto cmd = ValidateStop(r, d.config().axis);
+    if (!cmd.ok()) return cmd.status();
+    return d.Move(*cmd);
+  });
+}
+
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::GetCommand(const v1::GetCommandRequest& r, const CallContext&) {
+  // "drives/x1/commands/17"
+  std::vector<std::string> parts = absl::StrSplit(r.name(), '/');
+  uint64_t id = 0;
+  if (parts.size() != 4 || parts[0] != "drives" || parts[2] != "commands" || !absl::SimpleAtoi(parts[3], &id)) {
+    return FieldError("name", absl::StrCat("'", r.name(), "' is not \"drives/{drive}/commands/{id}\""));
+  }
+  auto drive = Find("name", parts[1]);
+  if (!drive.ok()) return drive.status();
+  auto info = (*drive)->GetCommand(id);
+  if (!info) return absl::NotFoundError(absl::StrCat("name: ", r.name(), " is unknown or no longer kept"));
+  return ToProto((*drive)->config().name, *info);
+}
+
+absl::StatusOr<v1::Parameter> DriveServiceCore::ReadParameter(const v1::ReadParameterRequest& r, const CallContext&) {
+  auto drive = Find("name", r.name());
+  if (!drive.ok()) return drive.status();
+  if (auto s = ValidateParameterId("read_parameter", (*drive)->config().family, r.parameter_id()); !s.ok()) return s;
+  auto v = (*drive)->ReadParameter(ParameterRef{r.parameter_id(), r.rom()});
+  if (!v.ok()) return v.status();
+  v1::Parameter p;
+  p.set_name(DriveResourceName((*drive)->config().name));
+  p.set_parameter_id(r.parameter_id());
+  p.set_value(*v);
+  p.set_rom(r.rom());
+  return p;
+}
+
+absl::StatusOr<v1::Parameter> DriveServiceCore::WriteParameter(const v1::WriteParameterRequest& r, const CallContext& c) {
+  auto drive = Find("name", r.name());
+  absl::StatusOr<v1::Parameter> out;
+  std::string drive_name = drive.ok() ? (*drive)->config().name : r.name();
+  if (!drive.ok()) {
+    out = drive.status();
+  } else if (auto s = ValidateParameterId("write_parameter", (*drive)->config().family, r.parameter_id()); !s.ok()) {
+    out = s;
+  } else if (auto w = (*drive)->WriteParameter(ParameterRef{r.parameter_id(), r.rom()}, r.value()); !w.ok()) {
+    out = w;
+  } else {
+    v1::Parameter p;
+    p.set_name(DriveResourceName(drive_name));
+    p.set_parameter_id(r.parameter_id());
+    p.set_value(r.value());
+    p.set_rom(r.rom());
+    out = p;
+  }
+  Audit(c, drive_name, "WriteParameter", r, out.status());
+  return out;
+}
+
+absl::StatusOr<v1::NativeCommandResponse> DriveServiceCore::SendNativeCommand(const v1::SendNativeCommandRequest& r,
+                                                                              const CallContext& c) {
+  auto drive = Find("name", r.name());
+  absl::StatusOr<v1::NativeCommandResponse> out;
+  std::string drive_name = drive.ok() ? (*drive)->config().name : r.name();
+  if (!drive.ok()) {
+    out = drive.status();
+  } else if (auto req = ValidateNative(r); !req.ok()) {
+    out = req.status();
+  } else if (auto reply = (*drive)->SendNative(*req); !reply.ok()) {
+    out = reply.status();
+  } else {
+    v1::NativeCommandResponse resp;
+    resp.set_name(DriveResourceName(drive_name));
+    if (reply->command_id != 0) {
+      if (auto info = (*drive)->GetCommand(reply->command_id)) *resp.mutable_command() = ToProto(drive_name, *info);
+    }
+    resp.set_rtc_status(reply->status);
+    resp.set_word2(reply->word2);
+    resp.set_word3(reply->word3);
+    resp.set_word4(reply->word4);
+    out = resp;
+  }
+  Audit(c, drive_name, "SendNativeCommand", r, out.status());
+  return out;
+}
+
+absl::Status DriveServiceCore::WatchDrives(const v1::WatchDrivesRequest& r, const CallContext&,
+                                           const std::function<bool(const v1::DriveStatus&)>& sink,
+                                           const std::function<bool()>& cancelled) {
+  double rate = r.max_rate_hz();
+  if (!(rate >= 0)) return FieldError("max_rate_hz", absl::StrCat(rate, " must not be negative"));
+  if (rate > kMaxWatchRateHz) {
+    return FieldError("max_rate_hz", absl::StrCat(rate, " exceeds ", kMaxWatchRateHz), absl::StatusCode::kOutOfRange);
+  }
+  if (rate == 0) rate = kDefaultWatchRateHz;
+  std::vector<Drive*> watched;
+  if (r.names().empty()) {
+    for (const auto& d : drives_) watched.push_back(d.get());
+  } else {
+    for (int i = 0; i < r.names_size(); ++i) {
+      auto d = Find(absl::StrCat("names[", i, "]"), r.names(i));
+      if (!d.ok()) return d.status();
+      watched.push_back(*d);
+    }
+  }
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(1.0 / rate));
+  std::vector<std::string> last(watched.size());
+  std::vector<uint64_t> last_seq(watched.size(), 0);
+  std::vector<bool> sent_any(watched.size(), false);
+  auto next = std::chrono::steady_clock::now();
+  while (!shutting_down_.load() && !cancelled()) {
+    for (size_t i = 0; i < watched.size(); ++i) {
+      DriveStatus s = watched[i]->GetStatus();
+      if (sent_any[i] && s.sequence == last_seq[i]) continue;
+      last_seq[i] = s.sequence;
+      v1::DriveStatus p = ToProto(watched[i]->config().name, s);
+      std::string key = ContentKey(p);
+      if (sent_any[i] && key == last[i]) continue;
+      last[i] = std::move(key);
+      sent_any[i] = true;
+      if (!sink(p)) return absl::OkStatus();
+    }
+    next += period;
+    const auto now = std::chrono::steady_clock::now();
+    if (next < now) next = now;
+    // Sleep in short slices so cancellation and shutdown end the stream promptly.
+    while (!shutting_down_.load() && !cancelled() && std::chrono::steady_clock::now() < next) {
+      std::this_thread::sleep_until(std::min(next, std::chrono::steady_clock::now() + std::chrono::milliseconds(20)));
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace drivegw::server

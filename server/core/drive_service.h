@@ -1,0 +1,78 @@
+// The one service core behind gRPC and REST: looks up drives, validates requests against the
+// axis, maps units, calls the Drive, and writes the audit log for every mutating call.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "adapters/core/drive.h"
+#include "drivegw/v1/drive.pb.h"
+
+namespace drivegw::storage {
+class AuditLog;
+}
+
+namespace drivegw::server {
+
+// Who is calling, as the front end saw it (principal is "anonymous" until authentication).
+struct CallContext {
+  std::string principal = "anonymous";
+  std::string source_address;
+  std::string transport;  // "grpc" or "rest"
+};
+
+class DriveServiceCore {
+ public:
+  // `audit` may be null (tests without storage); drives keep their order for ListDrives.
+  DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit);
+
+  absl::StatusOr<v1::ListDrivesResponse> ListDrives(const v1::ListDrivesRequest& r, const CallContext& c);
+  absl::StatusOr<v1::Drive> GetDrive(const v1::GetDriveRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> Enable(const v1::EnableRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> Disable(const v1::DisableRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> Home(const v1::HomeRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> MoveAbsolute(const v1::MoveAbsoluteRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> MoveRelative(const v1::MoveRelativeRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> MoveVelocity(const v1::MoveVelocityRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> Stop(const v1::StopRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> AcknowledgeFault(const v1::AcknowledgeFaultRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> GetCommand(const v1::GetCommandRequest& r, const CallContext& c);
+  absl::StatusOr<v1::Parameter> ReadParameter(const v1::ReadParameterRequest& r, const CallContext& c);
+  absl::StatusOr<v1::Parameter> WriteParameter(const v1::WriteParameterRequest& r, const CallContext& c);
+  absl::StatusOr<v1::NativeCommandResponse> SendNativeCommand(const v1::SendNativeCommandRequest& r,
+                                                              const CallContext& c);
+
+  // Streams snapshots of the requested drives to `sink` at most max_rate_hz per drive; only
+  // snapshots whose content changed are sent (the first one always). Returns when `sink`
+  // returns false, `cancelled()` turns true, or Shutdown() is called. Blocks the caller.
+  absl::Status WatchDrives(const v1::WatchDrivesRequest& r, const CallContext& c,
+                           const std::function<bool(const v1::DriveStatus&)>& sink,
+                           const std::function<bool()>& cancelled);
+
+  // Ends every running WatchDrives promptly (server shutdown).
+  void Shutdown() { shutting_down_.store(true); }
+
+  const std::vector<std::shared_ptr<Drive>>& drives() const { return drives_; }
+
+ private:
+  // "drives/x1" (or "x1") -> the drive; NotFound naming the resource, InvalidArgument for a
+  // malformed name.
+  absl::StatusOr<Drive*> Find(const std::string& field, const std::string& name) const;
+  template <typename Req>
+  absl::StatusOr<v1::CommandHandle> RunCommand(const char* action, const Req& r, const CallContext& c,
+                                               const std::function<absl::StatusOr<CommandInfo>(Drive&)>& op);
+  void Audit(const CallContext& c, const std::string& drive, const std::string& action,
+             const google::protobuf::Message& request, const absl::Status& result);
+
+  std::vector<std::shared_ptr<Drive>> drives_;
+  std::map<std::string, Drive*> by_name_;
+  storage::AuditLog* audit_;
+  std::atomic<bool> shutting_down_{false};
+};
+
+}  // namespace drivegw::server

@@ -1,0 +1,24 @@
+// Request validation against the drive's configured axis: the one place where API values are
+// checked, so gRPC and REST callers get the same field-named errors.
+#pragma once
+
+#include "absl/status/statusor.h"
+#include "adapters/core/command.h"
+#include "adapters/core/drive.h"
+#include "drivegw/v1/drive.pb.h"
+
+namespace drivegw::server {
+
+// Each returns the command in physical units with defaults applied (deceleration 0 → the
+// acceleration; stop deceleration 0 → the axis' max acceleration), or a FieldError naming
+// the request field and the limit (InvalidArgument for never-valid values, OutOfRange beyond
+// the configured axis).
+absl::StatusOr<MotionCommand> ValidateMoveAbsolute(const v1::MoveAbsoluteRequest& r, const AxisConfig& axis);
+absl::StatusOr<MotionCommand> ValidateMoveRelative(const v1::MoveRelativeRequest& r, const AxisConfig& axis,
+                                                   double demand_position_mm);
+absl::StatusOr<MotionCommand> ValidateMoveVelocity(const v1::MoveVelocityRequest& r, const AxisConfig& axis);
+absl::StatusOr<MotionCommand> ValidateStop(const v1::StopRequest& r, const AxisConfig& axis);
+absl::StatusOr<NativeRequest> ValidateNative(const v1::SendNativeCommandRequest& r);
+absl::Status ValidateParameterId(const char* request, const std::string& family, uint32_t parameter_id);
+
+}  // namespace drivegw::server

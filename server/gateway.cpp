@@ -1,0 +1,180 @@
+// Gateway: wires configuration, storage, drives, demo simulators, the core, gRPC and REST.
+#include "server/gateway.h"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+
+#include <filesystem>
+#include <map>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "adapters/core/log.h"
+#include "adapters/core/registry.h"
+#include "adapters/core/status.h"
+#include "adapters/linmot/linudp/factory.h"
+#include "server/grpc/drive_service_grpc.h"
+#include "server/grpc/worker_pool.h"
+#include "server/rest/server.h"
+#include "sim/linmot/server.h"
+#include "storage/audit_log.h"
+#include "storage/config_repo.h"
+#include "storage/db.h"
+#include "storage/migrations.h"
+
+namespace drivegw::server {
+
+extern const std::string_view kOpenApiJson;  // generated from proto/ at build time
+
+namespace {
+constexpr int kWorkerThreads = 8;
+
+DriveRegistry MakeRegistry() {
+  DriveRegistry r;
+  r.Register(linmot::linudp::kFamilyName, linmot::linudp::CreateLinMotUdpDrive);
+  return r;
+}
+}  // namespace
+
+struct Gateway::Impl {
+  const Clock* clock = nullptr;
+  std::unique_ptr<storage::Db> db;
+  std::unique_ptr<storage::AuditLog> audit;
+  std::map<std::string, std::unique_ptr<sim::linmot::LinMotServer>> sims;
+  std::vector<std::shared_ptr<Drive>> drives;
+  std::unique_ptr<DriveServiceCore> core;
+  std::unique_ptr<WorkerPool> pool;
+  std::unique_ptr<DriveServiceGrpc> service;
+  std::unique_ptr<grpc::Server> grpc_server;
+  int grpc_port = 0;
+  std::unique_ptr<rest::RestServer> rest;
+  bool stopped = false;
+};
+
+absl::StatusOr<std::pair<std::string, uint16_t>> SplitHostPort(const std::string& field, const std::string& value) {
+  const auto colon = value.rfind(':');
+  uint32_t port = 0;
+  if (colon == std::string::npos || !absl::SimpleAtoi(value.substr(colon + 1), &port) || port > 65535) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": '", value, "' is not host:port (port 0..65535)"));
+  }
+  std::string host = value.substr(0, colon);
+  if (host.empty()) host = "0.0.0.0";
+  return std::make_pair(host, static_cast<uint16_t>(port));
+}
+
+Gateway::Gateway(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Gateway::~Gateway() { Stop(); }
+
+absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, const Clock& clock) {
+  auto impl = std::make_unique<Impl>();
+  impl->clock = &clock;
+  config::GatewayConfig& cfg = options.config;
+
+  // Storage first: a gateway that cannot audit does not start.
+  std::error_code ec;
+  std::filesystem::create_directories(cfg.data_dir, ec);
+  if (ec) return absl::FailedPreconditionError(absl::StrCat("data_dir: cannot create '", cfg.data_dir, "': ", ec.message()));
+  const std::string db_path = (std::filesystem::path(cfg.data_dir) / "drivegw.db").string();
+  DGW_ASSIGN_OR_RETURN(storage::Db db, storage::Db::Open(db_path));
+  impl->db = std::make_unique<storage::Db>(std::move(db));
+  DGW_RETURN_IF_ERROR(storage::Migrate(*impl->db));
+  impl->audit = std::make_unique<storage::AuditLog>(*impl->db);
+
+  // Demo mode: embedded simulated drives on loopback, and drive configs pointing at them.
+  std::vector<DriveConfig> drive_configs = cfg.drives;
+  if (cfg.demo) {
+    drive_configs = config::DemoDrives(options.demo_first_port == 0 ? 49360 : options.demo_first_port);
+    for (size_t i = 0; i < drive_configs.size(); ++i) {
+      DriveConfig& dc = drive_configs[i];
+      sim::linmot::SimOptions so;
+      so.name = dc.name;
+      DGW_ASSIGN_OR_RETURN(so.bind, transport::Endpoint::Parse(dc.linudp->host, options.demo_first_port == 0 ? 0 : dc.linudp->port));
+      so.master_port = options.demo_master_port;
+      so.stroke_min_mm = dc.axis.min_mm;
+      so.stroke_max_mm = dc.axis.max_mm;
+      auto server = sim::linmot::LinMotServer::Start(so, clock);
+      if (!server.ok()) {
+        return absl::Status(server.status().code(),
+                            absl::StrCat("demo drive '", dc.name, "' simulator: ", server.status().message()));
+      }
+      dc.linudp->port = (*server)->port();
+      dc.linudp->master_port = options.demo_master_port;
+      impl->sims[dc.name] = std::move(*server);
+    }
+  }
+
+  // One configuration snapshot per start, so the audit trail knows what was running.
+  storage::ConfigRepo repo(*impl->db);
+  if (auto s = repo.SaveSnapshot(cfg.demo ? "demo" : "config", cfg.source_yaml, static_cast<int>(drive_configs.size()));
+      !s.ok()) {
+    return s.status();
+  }
+
+  const DriveRegistry registry = MakeRegistry();
+  for (const DriveConfig& dc : drive_configs) {
+    DGW_ASSIGN_OR_RETURN(std::unique_ptr<Drive> drive, registry.Create(dc, clock));
+    // A drive that is switched off is OFFLINE, not a start failure; a bad transport is.
+    DGW_RETURN_IF_ERROR(drive->Activate());
+    impl->drives.push_back(std::move(drive));
+  }
+  impl->core = std::make_unique<DriveServiceCore>(impl->drives, impl->audit.get());
+  impl->pool = std::make_unique<WorkerPool>(kWorkerThreads);
+  impl->service = std::make_unique<DriveServiceGrpc>(*impl->core, *impl->pool);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  DGW_ASSIGN_OR_RETURN(auto grpc_addr, SplitHostPort("listen.grpc", cfg.listen.grpc));
+  builder.AddListeningPort(absl::StrCat(grpc_addr.first, ":", grpc_addr.second), grpc::InsecureServerCredentials(),
+                           &impl->grpc_port);
+  builder.RegisterService(impl->service.get());
+  impl->grpc_server = builder.BuildAndStart();
+  if (impl->grpc_server == nullptr || impl->grpc_port == 0) {
+    return absl::UnavailableError(absl::StrCat("listen.grpc: cannot listen on ", cfg.listen.grpc));
+  }
+
+  DGW_ASSIGN_OR_RETURN(auto http_addr, SplitHostPort("listen.http", cfg.listen.http));
+  rest::RestOptions ro;
+  ro.listen_address = http_addr.first;
+  ro.port = http_addr.second;
+  ro.channel = impl->grpc_server->InProcessChannel(grpc::ChannelArguments());
+  ro.openapi_json = std::string(kOpenApiJson);
+  ro.static_dir = options.static_dir;
+  auto rest = rest::RestServer::Start(std::move(ro));
+  if (!rest.ok()) {
+    return absl::Status(rest.status().code(), absl::StrCat("listen.http: ", rest.status().message()));
+  }
+  impl->rest = std::move(*rest);
+
+  log::Info("gateway_started", log::Fields()
+                                   .Add("grpc_port", impl->grpc_port)
+                                   .Add("http_port", impl->rest->port())
+                                   .Add("drives", impl->drives.size())
+                                   .Add("demo", cfg.demo ? "true" : "false")
+                                   .Add("db", db_path));
+  return std::unique_ptr<Gateway>(new Gateway(std::move(impl)));
+}
+
+uint16_t Gateway::grpc_port() const { return static_cast<uint16_t>(impl_->grpc_port); }
+uint16_t Gateway::http_port() const { return impl_->rest ? impl_->rest->port() : 0; }
+DriveServiceCore& Gateway::core() { return *impl_->core; }
+
+sim::linmot::LinMotServer* Gateway::demo_simulator(const std::string& drive) const {
+  auto it = impl_->sims.find(drive);
+  return it == impl_->sims.end() ? nullptr : it->second.get();
+}
+
+void Gateway::Stop() {
+  if (!impl_ || impl_->stopped) return;
+  impl_->stopped = true;
+  if (impl_->core) impl_->core->Shutdown();  // ends watch streams
+  if (impl_->rest) impl_->rest->Stop();
+  if (impl_->grpc_server) impl_->grpc_server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
+  if (impl_->pool) impl_->pool->Shutdown();
+  for (auto& d : impl_->drives) d->Deactivate();
+  for (auto& [name, sim] : impl_->sims) sim->Stop();
+  log::Info("gateway_stopped");
+}
+
+}  // namespace drivegw::server

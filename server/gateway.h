@@ -1,0 +1,58 @@
+// The composition root: configuration -> storage, drives (and the embedded demo simulators),
+// the service core, gRPC and REST servers. main.cpp and the end-to-end tests both use it.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "adapters/core/clock.h"
+#include "server/config/config.h"
+#include "server/core/drive_service.h"
+
+namespace drivegw::sim::linmot {
+class LinMotServer;
+}
+
+namespace drivegw::server {
+
+struct GatewayOptions {
+  config::GatewayConfig config;
+  // Demo mode: the first simulated drive's UDP port (consecutive ports for the others) and
+  // the master port both sides use. 0 = ephemeral ports, for tests running in parallel.
+  uint16_t demo_first_port = 49360;
+  uint16_t demo_master_port = 41136;
+  std::string static_dir;  // web assets served at / (empty: none)
+};
+
+class Gateway {
+ public:
+  static absl::StatusOr<std::unique_ptr<Gateway>> Start(GatewayOptions options,
+                                                        const Clock& clock = SteadyClock::Instance());
+  ~Gateway();
+  Gateway(const Gateway&) = delete;
+  Gateway& operator=(const Gateway&) = delete;
+
+  uint16_t grpc_port() const;
+  uint16_t http_port() const;
+  DriveServiceCore& core();
+  // The embedded simulator behind a demo drive (nullptr outside demo mode), for fault
+  // injection in tests and demos.
+  sim::linmot::LinMotServer* demo_simulator(const std::string& drive) const;
+
+  // Stops servers, drives and simulators; idempotent. The destructor calls it.
+  void Stop();
+
+  struct Impl;
+
+ private:
+  explicit Gateway(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// Splits "host:port" (port 0 allowed); errors name `field`.
+absl::StatusOr<std::pair<std::string, uint16_t>> SplitHostPort(const std::string& field, const std::string& value);
+
+}  // namespace drivegw::server

@@ -1,0 +1,156 @@
+// DriveServiceGrpc: one line per RPC into the core; blocking calls run on the worker pool.
+#include "server/grpc/drive_service_grpc.h"
+
+#include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include "absl/strings/match.h"
+#include "server/grpc/status_mapping.h"
+
+namespace drivegw::server {
+namespace {
+
+std::string Metadata(const grpc::CallbackServerContext& ctx, const char* key) {
+  const auto& md = ctx.client_metadata();
+  auto it = md.find(key);
+  if (it == md.end()) return "";
+  return std::string(it->second.data(), it->second.size());
+}
+
+// Runs fn(ctx) inline and finishes the default reactor.
+template <typename Resp, typename Fn>
+grpc::ServerUnaryReactor* Inline(grpc::CallbackServerContext* ctx, Resp* resp, Fn fn) {
+  auto* reactor = ctx->DefaultReactor();
+  auto result = fn(ContextFrom(*ctx));
+  if (result.ok()) *resp = *std::move(result);
+  reactor->Finish(ToGrpcStatus(result.status()));
+  return reactor;
+}
+
+// Runs fn(ctx) on the worker pool (it may block on the drive) and finishes from there.
+template <typename Resp, typename Fn>
+grpc::ServerUnaryReactor* Offload(WorkerPool& pool, grpc::CallbackServerContext* ctx, Resp* resp, Fn fn) {
+  auto* reactor = ctx->DefaultReactor();
+  CallContext cc = ContextFrom(*ctx);
+  pool.Post([reactor, resp, fn = std::move(fn), cc = std::move(cc)]() mutable {
+    auto result = fn(cc);
+    if (result.ok()) *resp = *std::move(result);
+    reactor->Finish(ToGrpcStatus(result.status()));
+  });
+  return reactor;
+}
+
+// Server stream of snapshots: a producer thread runs the core's WatchDrives loop and hands each
+// snapshot to gRPC one write at a time (the core coalesces while a write is in flight).
+class WatchReactor final : public grpc::ServerWriteReactor<v1::DriveStatus> {
+ public:
+  WatchReactor(DriveServiceCore& core, const v1::WatchDrivesRequest& req, CallContext cc) {
+    producer_ = std::thread([this, &core, req, cc = std::move(cc)] {
+      absl::Status s = core.WatchDrives(
+          req, cc, [this](const v1::DriveStatus& st) { return Write(st); },
+          [this] { return cancelled_.load(); });
+      Finish(ToGrpcStatus(s));
+    });
+  }
+
+  void OnWriteDone(bool ok) override {
+    std::lock_guard lock(mu_);
+    writing_ = false;
+    if (!ok) cancelled_.store(true);
+    cv_.notify_all();
+  }
+  void OnCancel() override {
+    cancelled_.store(true);
+    std::lock_guard lock(mu_);
+    cv_.notify_all();
+  }
+  void OnDone() override {
+    cancelled_.store(true);
+    // The producer called Finish() before OnDone can run; it only has to return. gRPC may run
+    // OnDone inline on the producer thread itself, which then cannot join itself.
+    if (producer_.joinable()) {
+      if (producer_.get_id() == std::this_thread::get_id()) {
+        producer_.detach();
+      } else {
+        producer_.join();
+      }
+    }
+    delete this;  // callback API: the reactor owns itself until OnDone
+  }
+
+ private:
+  bool Write(const v1::DriveStatus& st) {
+    std::unique_lock lock(mu_);
+    cv_.wait(lock, [&] { return !writing_ || cancelled_.load(); });
+    if (cancelled_.load()) return false;
+    current_ = st;
+    writing_ = true;
+    lock.unlock();
+    StartWrite(&current_);
+    return true;
+  }
+
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool writing_ = false;
+  std::atomic<bool> cancelled_{false};
+  v1::DriveStatus current_;
+  std::thread producer_;
+};
+
+}  // namespace
+
+CallContext ContextFrom(const grpc::CallbackServerContext& ctx) {
+  CallContext cc;
+  const std::string peer = ctx.peer();
+  const bool network = absl::StartsWith(peer, "ipv4:") || absl::StartsWith(peer, "ipv6:") ||
+                       absl::StartsWith(peer, "unix:");
+  cc.transport = "grpc";
+  cc.source_address = peer;
+  if (!network) {
+    if (std::string src = Metadata(ctx, "x-drivegw-source"); !src.empty()) cc.source_address = src;
+    if (std::string tr = Metadata(ctx, "x-drivegw-transport"); !tr.empty()) cc.transport = tr;
+  }
+  return cc;
+}
+
+grpc::ServerUnaryReactor* DriveServiceGrpc::ListDrives(grpc::CallbackServerContext* ctx,
+                                                       const v1::ListDrivesRequest* req,
+                                                       v1::ListDrivesResponse* resp) {
+  return Inline(ctx, resp, [&](const CallContext& c) { return core_.ListDrives(*req, c); });
+}
+grpc::ServerUnaryReactor* DriveServiceGrpc::GetDrive(grpc::CallbackServerContext* ctx, const v1::GetDriveRequest* req,
+                                                     v1::Drive* resp) {
+  return Inline(ctx, resp, [&](const CallContext& c) { return core_.GetDrive(*req, c); });
+}
+grpc::ServerUnaryReactor* DriveServiceGrpc::GetCommand(grpc::CallbackServerContext* ctx,
+                                                       const v1::GetCommandRequest* req, v1::CommandHandle* resp) {
+  return Inline(ctx, resp, [&](const CallContext& c) { return core_.GetCommand(*req, c); });
+}
+grpc::ServerWriteReactor<v1::DriveStatus>* DriveServiceGrpc::WatchDrives(grpc::CallbackServerContext* ctx,
+                                                                         const v1::WatchDrivesRequest* req) {
+  return new WatchReactor(core_, *req, ContextFrom(*ctx));  // deletes itself in OnDone
+}
+
+#define DGW_OFFLOAD(Method, Req, Resp)                                                              \
+  grpc::ServerUnaryReactor* DriveServiceGrpc::Method(grpc::CallbackServerContext* ctx, const Req* req, \
+                                                     Resp* resp) {                                 \
+    return Offload(pool_, ctx, resp, [this, req](const CallContext& c) { return core_.Method(*req, c); }); \
+  }
+
+DGW_OFFLOAD(Enable, v1::EnableRequest, v1::CommandHandle)
+DGW_OFFLOAD(Disable, v1::DisableRequest, v1::CommandHandle)
+DGW_OFFLOAD(Home, v1::HomeRequest, v1::CommandHandle)
+DGW_OFFLOAD(MoveAbsolute, v1::MoveAbsoluteRequest, v1::CommandHandle)
+DGW_OFFLOAD(MoveRelative, v1::MoveRelativeRequest, v1::CommandHandle)
+DGW_OFFLOAD(MoveVelocity, v1::MoveVelocityRequest, v1::CommandHandle)
+DGW_OFFLOAD(Stop, v1::StopRequest, v1::CommandHandle)
+DGW_OFFLOAD(AcknowledgeFault, v1::AcknowledgeFaultRequest, v1::CommandHandle)
+DGW_OFFLOAD(ReadParameter, v1::ReadParameterRequest, v1::Parameter)
+DGW_OFFLOAD(WriteParameter, v1::WriteParameterRequest, v1::Parameter)
+DGW_OFFLOAD(SendNativeCommand, v1::SendNativeCommandRequest, v1::NativeCommandResponse)
+#undef DGW_OFFLOAD
+
+}  // namespace drivegw::server

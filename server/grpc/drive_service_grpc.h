@@ -1,0 +1,59 @@
+// Thin gRPC callback service: decodes the call context, runs the core (blocking work on the
+// worker pool), and finishes with ToGrpcStatus. No logic lives here.
+#pragma once
+
+#include <memory>
+
+#include "drivegw/v1/drive.grpc.pb.h"
+#include "server/core/drive_service.h"
+#include "server/grpc/worker_pool.h"
+
+namespace drivegw::server {
+
+class DriveServiceGrpc final : public v1::DriveService::CallbackService {
+ public:
+  DriveServiceGrpc(DriveServiceCore& core, WorkerPool& pool) : core_(core), pool_(pool) {}
+
+  grpc::ServerUnaryReactor* ListDrives(grpc::CallbackServerContext* ctx, const v1::ListDrivesRequest* req,
+                                       v1::ListDrivesResponse* resp) override;
+  grpc::ServerUnaryReactor* GetDrive(grpc::CallbackServerContext* ctx, const v1::GetDriveRequest* req,
+                                     v1::Drive* resp) override;
+  grpc::ServerWriteReactor<v1::DriveStatus>* WatchDrives(grpc::CallbackServerContext* ctx,
+                                                         const v1::WatchDrivesRequest* req) override;
+  grpc::ServerUnaryReactor* Enable(grpc::CallbackServerContext* ctx, const v1::EnableRequest* req,
+                                   v1::CommandHandle* resp) override;
+  grpc::ServerUnaryReactor* Disable(grpc::CallbackServerContext* ctx, const v1::DisableRequest* req,
+                                    v1::CommandHandle* resp) override;
+  grpc::ServerUnaryReactor* Home(grpc::CallbackServerContext* ctx, const v1::HomeRequest* req,
+                                 v1::CommandHandle* resp) override;
+  grpc::ServerUnaryReactor* MoveAbsolute(grpc::CallbackServerContext* ctx, const v1::MoveAbsoluteRequest* req,
+                                         v1::CommandHandle* resp) override;
+  grpc::ServerUnaryReactor* MoveRelative(grpc::CallbackServerContext* ctx, const v1::MoveRelativeRequest* req,
+                                         v1::CommandHandle* resp) override;
+  grpc::ServerUnaryReactor* MoveVelocity(grpc::CallbackServerContext* ctx, const v1::MoveVelocityRequest* req,
+                                         v1::CommandHandle* resp) override;
+  grpc::ServerUnaryReactor* Stop(grpc::CallbackServerContext* ctx, const v1::StopRequest* req,
+                                 v1::CommandHandle* resp) override;
+  grpc::ServerUnaryReactor* AcknowledgeFault(grpc::CallbackServerContext* ctx,
+                                             const v1::AcknowledgeFaultRequest* req,
+                                             v1::CommandHandle* resp) override;
+  grpc::ServerUnaryReactor* GetCommand(grpc::CallbackServerContext* ctx, const v1::GetCommandRequest* req,
+                                       v1::CommandHandle* resp) override;
+  grpc::ServerUnaryReactor* ReadParameter(grpc::CallbackServerContext* ctx, const v1::ReadParameterRequest* req,
+                                          v1::Parameter* resp) override;
+  grpc::ServerUnaryReactor* WriteParameter(grpc::CallbackServerContext* ctx, const v1::WriteParameterRequest* req,
+                                           v1::Parameter* resp) override;
+  grpc::ServerUnaryReactor* SendNativeCommand(grpc::CallbackServerContext* ctx,
+                                              const v1::SendNativeCommandRequest* req,
+                                              v1::NativeCommandResponse* resp) override;
+
+ private:
+  DriveServiceCore& core_;
+  WorkerPool& pool_;
+};
+
+// The caller as gRPC saw it; the REST front end's in-process calls carry the HTTP client's
+// address in x-drivegw-source (trusted only on in-process calls).
+CallContext ContextFrom(const grpc::CallbackServerContext& ctx);
+
+}  // namespace drivegw::server
