@@ -1,0 +1,131 @@
+// Socketless REST router: HTTP request in, google.api.http transcoding to an in-process gRPC
+// call, JSON response (or an NDJSON stream) out. No Beast here; unit tests call it directly.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "server/rest/path_template.h"
+
+namespace google::protobuf {
+class MethodDescriptor;
+}
+namespace grpc {
+class Channel;
+}
+
+namespace drivegw::rest {
+
+struct HttpRequest {
+  std::string method;  // "GET", "POST", ... as sent
+  std::string target;  // origin-form: "/v1/drives:watch?names=x1&max_rate_hz=10"
+  std::string body;
+  std::string peer;  // client "ip:port", forwarded as x-drivegw-source
+};
+
+struct HttpResponse {
+  int status = 200;
+  std::string content_type = "application/json";
+  std::string body;
+  std::vector<std::pair<std::string, std::string>> headers;  // extra ones, e.g. Allow
+};
+
+// A JSON google.rpc.Status response ({code, message, details}) with `http_status`.
+// `grpc_code` is the google.rpc.Code; `field`, when set, adds a google.rpc.BadRequest detail.
+HttpResponse ErrorResponse(int http_status, int grpc_code, std::string message,
+                           std::string field = {}, std::string field_description = {});
+// HTTP status for a google.rpc.Code (INVALID_ARGUMENT 400, NOT_FOUND 404, ..., else 500).
+int HttpStatusForGrpcCode(int grpc_code);
+
+// A server-streaming call in progress; the sink's owner drives it. Not thread-safe: call
+// RequestNext and Cancel from one thread (or strand) at a time.
+class StreamCall {
+ public:
+  virtual ~StreamCall() = default;
+  // Asks for one more message: the sink then gets exactly one OnStreamMessage, or the call
+  // ends (OnStreamEnd). Flow control: nothing is read from gRPC without it.
+  virtual void RequestNext() noexcept = 0;
+  // Cancels the gRPC call (client gone); OnStreamEnd follows. Idempotent.
+  virtual void Cancel() noexcept = 0;
+};
+
+// Receives the answer to one request. The HTTP session implements it (tests record it).
+// Calls may come inline from Router::Handle or on gRPC threads: implementations hand them
+// to their own executor and return.
+class ResponseSink {
+ public:
+  virtual ~ResponseSink() = default;
+  // A whole response: unary calls, fixed routes, and every error found before a stream
+  // started. Called once; it ends the exchange.
+  virtual void OnResponse(HttpResponse response) noexcept = 0;
+  // A server-streaming route was started (inline from Handle, before any other call). Call
+  // stream->RequestNext() for the first message.
+  virtual void OnStreamStarted(std::shared_ptr<StreamCall> stream) noexcept = 0;
+  // One message as one line of JSON ending in '\n' (NDJSON).
+  virtual void OnStreamMessage(std::string line) noexcept = 0;
+  // The last call of a stream: `end.status` 200 when the gRPC call ended OK; otherwise the
+  // mapped error (status and google.rpc.Status JSON body). Sent as a whole response if no
+  // message was written yet, else as a last line {"error": <body>}.
+  virtual void OnStreamEnd(HttpResponse end) noexcept = 0;
+};
+
+struct RouterOptions {
+  std::shared_ptr<grpc::Channel> channel;  // the gRPC server's InProcessChannel
+  std::string service = "drivegw.v1.DriveService";
+  std::string openapi_json;                       // served at GET /openapi.json
+  std::string static_dir;                         // served at GET /... when set
+  std::chrono::milliseconds call_timeout{30000};  // deadline of unary calls
+  std::chrono::milliseconds health_timeout{1000};
+};
+
+// One HTTP route derived from a google.api.http rule (binding).
+struct Route {
+  std::string http_method;  // "GET", "POST", "PUT", "DELETE", "PATCH" or a custom kind
+  PathTemplate path;
+  std::string body;           // "" (none), "*" or a request field name
+  std::string response_body;  // "" or a response field name
+  const google::protobuf::MethodDescriptor* method = nullptr;
+  std::string grpc_path;  // "/drivegw.v1.DriveService/MoveAbsolute"
+  bool server_streaming = false;
+};
+
+class Router {
+ public:
+  // Reads every method's google.api.http rule (with additional_bindings) of options.service
+  // from the generated descriptor pool. Errors name the method and the bad rule.
+  static absl::StatusOr<std::unique_ptr<Router>> Create(RouterOptions options);
+  ~Router();
+  Router(const Router&) = delete;
+  Router& operator=(const Router&) = delete;
+
+  // Answers `request` through `sink` (see ResponseSink). Never throws, never blocks on gRPC.
+  void Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noexcept;
+
+  // Cancels every gRPC call in flight and answers new requests 503; for shutdown.
+  void CancelAll() noexcept;
+  // Waits until no gRPC call started here is still running (their sinks have been called
+  // for the last time). False on timeout.
+  bool WaitIdle(std::chrono::milliseconds timeout) noexcept;
+
+  const std::vector<Route>& routes() const { return routes_; }
+
+  struct Inflight;  // calls in flight, shared with their completion callbacks
+
+ private:
+  Router(RouterOptions options, std::vector<Route> routes);
+  void HandleApi(const Route& route, std::vector<PathBinding> bindings, std::string_view query,
+                 HttpRequest& request, const std::shared_ptr<ResponseSink>& sink) noexcept;
+  void HandleHealth(const std::shared_ptr<ResponseSink>& sink) noexcept;
+  HttpResponse ServeStatic(std::string_view path) const;
+
+  RouterOptions options_;
+  std::vector<Route> routes_;
+  std::shared_ptr<Inflight> inflight_;
+};
+
+}  // namespace drivegw::rest

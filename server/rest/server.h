@@ -1,0 +1,52 @@
+// REST server: HTTP/1.1 listener and sessions (Boost.Beast, kept inside server.cpp) in front of
+// the router, which transcodes to the gRPC service over an in-process channel.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "absl/status/statusor.h"
+
+namespace grpc {
+class Channel;
+}
+
+namespace drivegw::rest {
+
+struct RestOptions {
+  std::string listen_address = "0.0.0.0";
+  uint16_t port = 8080;                    // 0: ephemeral, read back with RestServer::port()
+  std::shared_ptr<grpc::Channel> channel;  // the gRPC server's InProcessChannel (required)
+  std::string openapi_json;                // served at GET /openapi.json
+  std::string static_dir;                  // served at GET / ... (empty: none)
+  size_t body_limit = 1 << 20;             // larger request bodies get 413
+  // Deadline for a whole request once the connection is idle, and for every write.
+  std::chrono::seconds read_timeout{30};
+  int threads = 2;
+};
+
+class RestServer {
+ public:
+  // Binds, listens and starts the I/O threads. Errors: InvalidArgument (bad address, no
+  // channel, bad HttpRule), Unavailable (bind/listen failed).
+  static absl::StatusOr<std::unique_ptr<RestServer>> Start(RestOptions options);
+  ~RestServer();  // Stop()s
+  RestServer(const RestServer&) = delete;
+  RestServer& operator=(const RestServer&) = delete;
+
+  uint16_t port() const;
+  // Stops accepting, cancels streams and calls in flight, closes connections and joins the
+  // threads. Idempotent; not to be called from a handler thread.
+  void Stop();
+
+  struct Impl;
+
+ private:
+  explicit RestServer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace drivegw::rest
