@@ -1,0 +1,528 @@
+// Parses and validates the gateway YAML; yaml-cpp exceptions stop here and become Status.
+#include "server/config/config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <system_error>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+
+namespace drivegw::config {
+namespace {
+
+// Bounds for every integer key; docs/config.md shows the same table.
+constexpr int64_t kMaxPort = 65535;
+constexpr int64_t kMaxCycleMs = 1000;
+constexpr int64_t kMaxReplyTimeoutMs = 10000;
+constexpr int64_t kMaxLostAfterTimeouts = 1000;
+constexpr int64_t kMaxRequestMs = 600000;  // 10 min
+constexpr int64_t kMaxAcceptMs = 60000;    // 1 min
+constexpr int64_t kMaxHomingMs = 3600000;  // 1 h
+constexpr size_t kMaxNameLength = 32;
+constexpr size_t kMaxErrors = 20;
+
+absl::string_view Av(std::string_view s) { return absl::string_view(s.data(), s.size()); }
+
+// Edit distance, for "did you mean" on misspelt keys.
+size_t Distance(std::string_view a, std::string_view b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diag = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// Collects every problem so one run of the gateway reports them all.
+class Errors {
+ public:
+  void Add(std::string_view path, std::string_view what, const YAML::Node& at) {
+    std::string line = absl::StrCat(Av(path), ": ", Av(what));
+    if (at.IsDefined()) {
+      const YAML::Mark mark = at.Mark();
+      if (!mark.is_null()) {
+        absl::StrAppend(&line, " (line ", mark.line + 1, ", column ", mark.column + 1, ")");
+      }
+    }
+    if (list_.size() < kMaxErrors) list_.push_back(std::move(line));
+    ++count_;
+  }
+  bool empty() const { return count_ == 0; }
+  absl::Status ToStatus() const {
+    std::string msg = absl::StrJoin(list_, "; ");
+    if (count_ > list_.size()) absl::StrAppend(&msg, "; and ", count_ - list_.size(), " more");
+    return absl::InvalidArgumentError(msg);
+  }
+
+ private:
+  std::vector<std::string> list_;
+  size_t count_ = 0;
+};
+
+const char* KindName(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Null:
+      return "null";
+    case YAML::NodeType::Scalar:
+      return "a scalar";
+    case YAML::NodeType::Sequence:
+      return "a sequence";
+    case YAML::NodeType::Map:
+      return "a mapping";
+    case YAML::NodeType::Undefined:
+      break;
+  }
+  return "nothing";
+}
+
+// A mapping whose keys are checked against the schema: unknown, duplicate and non-scalar keys
+// are errors; Get() hands out the known ones.
+class Section {
+ public:
+  Section(const YAML::Node& node, std::string path, std::initializer_list<std::string_view> keys,
+          Errors& errors)
+      : path_(std::move(path)), errors_(errors) {
+    if (node.IsNull()) return;  // "listen:" with nothing below: all defaults
+    if (!node.IsMap()) {
+      errors_.Add(Label(), absl::StrCat("expected a mapping, got ", KindName(node)), node);
+      return;
+    }
+    for (const auto& kv : node) {
+      if (!kv.first.IsScalar()) {
+        errors_.Add(Label(), "keys must be plain names", kv.first);
+        continue;
+      }
+      const std::string key = kv.first.Scalar();
+      const std::string key_path = Child(key);
+      if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
+        std::string what = "unknown key";
+        for (std::string_view known : keys) {
+          if (Distance(key, known) <= 2) {
+            absl::StrAppend(&what, " (did you mean '", Av(known), "'?)");
+            break;
+          }
+        }
+        errors_.Add(key_path, what, kv.first);
+        continue;
+      }
+      if (!values_.emplace(key, kv.second).second) {
+        errors_.Add(key_path, "duplicate key", kv.first);
+      }
+    }
+  }
+
+  // The value under `key`, or nullopt when absent.
+  std::optional<YAML::Node> Get(std::string_view key) const {
+    auto it = values_.find(std::string(key));
+    if (it == values_.end()) return std::nullopt;
+    return it->second;
+  }
+  bool Has(std::string_view key) const { return values_.count(std::string(key)) != 0; }
+
+  std::string Child(std::string_view key) const {
+    return path_.empty() ? std::string(key) : absl::StrCat(path_, ".", Av(key));
+  }
+  std::string Label() const { return path_.empty() ? "(root)" : path_; }
+  Errors& errors() const { return errors_; }
+
+  // ---- typed readers: a missing key leaves `out` at its default ----
+
+  // `required` adds "<path>: required" when absent.
+  bool String(std::string_view key, std::string& out, bool required = false) const {
+    auto node = Get(key);
+    if (!node) {
+      if (required) errors_.Add(Child(key), "required", YAML::Node());
+      return false;
+    }
+    if (!node->IsScalar()) {
+      errors_.Add(Child(key), absl::StrCat("expected a string, got ", KindName(*node)), *node);
+      return false;
+    }
+    out = node->Scalar();
+    return true;
+  }
+
+  bool Int(std::string_view key, int64_t min, int64_t max, int64_t& out) const {
+    auto node = Get(key);
+    if (!node) return false;
+    int64_t value = 0;
+    if (!node->IsScalar() || !absl::SimpleAtoi(node->Scalar(), &value)) {
+      errors_.Add(Child(key), absl::StrCat(Shown(*node), " is not an integer"), *node);
+      return false;
+    }
+    if (value < min) {
+      errors_.Add(Child(key), absl::StrCat(value, " is below ", min), *node);
+      return false;
+    }
+    if (value > max) {
+      errors_.Add(Child(key), absl::StrCat(value, " exceeds ", max), *node);
+      return false;
+    }
+    out = value;
+    return true;
+  }
+
+  bool Double(std::string_view key, double& out, bool required) const {
+    auto node = Get(key);
+    if (!node) {
+      if (required) errors_.Add(Child(key), "required", YAML::Node());
+      return false;
+    }
+    double value = 0;
+    if (!node->IsScalar() || !absl::SimpleAtod(node->Scalar(), &value) || !std::isfinite(value)) {
+      errors_.Add(Child(key), absl::StrCat(Shown(*node), " is not a finite number"), *node);
+      return false;
+    }
+    out = value;
+    return true;
+  }
+
+  bool Millis(std::string_view key, int64_t max, std::chrono::milliseconds& out) const {
+    int64_t ms = 0;
+    if (!Int(key, 1, max, ms)) return false;
+    out = std::chrono::milliseconds(ms);
+    return true;
+  }
+
+  static std::string Shown(const YAML::Node& node) {
+    if (node.IsScalar()) return absl::StrCat("'", node.Scalar(), "'");
+    return KindName(node);
+  }
+
+ private:
+  std::string path_;
+  Errors& errors_;
+  std::map<std::string, YAML::Node> values_;
+};
+
+bool IsNameChar(char c) {
+  return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+}
+
+bool IsValidName(std::string_view name) {
+  return !name.empty() && name.size() <= kMaxNameLength &&
+         std::all_of(name.begin(), name.end(), IsNameChar);
+}
+
+// Host names and IPv4 literals; IPv6 literals go in brackets in host:port only.
+bool IsValidHost(std::string_view host) {
+  if (host.empty() || host.size() > 253) return false;
+  return std::all_of(host.begin(), host.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+           c == '-' || c == '_';
+  });
+}
+
+bool IsValidIpv6Literal(std::string_view host) {
+  if (host.size() < 2) return false;
+  return std::all_of(host.begin(), host.end(), [](char c) {
+    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F') || c == ':' ||
+           c == '.';
+  });
+}
+
+// "host:port", "[v6]:port"; port 0..65535 (0 = ephemeral, used by tests).
+bool IsHostPort(std::string_view text) {
+  const size_t colon = text.rfind(':');
+  if (colon == std::string_view::npos) return false;
+  std::string_view host = text.substr(0, colon);
+  const std::string_view port = text.substr(colon + 1);
+  if (port.empty() || port.size() > 5 ||
+      !std::all_of(port.begin(), port.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+    return false;
+  }
+  int value = 0;
+  for (char c : port) value = value * 10 + (c - '0');
+  if (value > kMaxPort) return false;
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') {
+    return IsValidIpv6Literal(host.substr(1, host.size() - 2));
+  }
+  return IsValidHost(host);
+}
+
+void ParseListen(const Section& root, ListenConfig& listen) {
+  auto node = root.Get("listen");
+  if (!node) return;
+  const Section s(*node, "listen", {"grpc", "http"}, root.errors());
+  for (auto [key, field] : {std::pair<std::string_view, std::string*>{"grpc", &listen.grpc},
+                            std::pair<std::string_view, std::string*>{"http", &listen.http}}) {
+    std::string value;
+    if (!s.String(key, value)) continue;
+    if (!IsHostPort(value)) {
+      s.errors().Add(s.Child(key), absl::StrCat("'", value, "' is not a host:port"), *s.Get(key));
+      continue;
+    }
+    *field = value;
+  }
+}
+
+void ParseLinUdp(const Section& drive, LinUdpConfig& out) {
+  const YAML::Node node = *drive.Get("linudp");
+  const Section s(node, drive.Child("linudp"),
+                  {"host", "port", "master_port", "bind_host", "cycle_ms", "reply_timeout_ms",
+                   "lost_after_timeouts"},
+                  drive.errors());
+  if (!node.IsNull() && !node.IsMap()) return;
+  if (s.String("host", out.host, /*required=*/true) && !IsValidHost(out.host)) {
+    s.errors().Add(s.Child("host"),
+                   absl::StrCat("'", out.host, "' is not a host name or IPv4 address"),
+                   *s.Get("host"));
+  }
+  if (s.String("bind_host", out.bind_host) && !IsValidHost(out.bind_host)) {
+    s.errors().Add(s.Child("bind_host"),
+                   absl::StrCat("'", out.bind_host, "' is not a host name or IPv4 address"),
+                   *s.Get("bind_host"));
+  }
+  int64_t v = 0;
+  if (s.Int("port", 1, kMaxPort, v)) out.port = static_cast<uint16_t>(v);
+  // 0 = ephemeral master port: only a simulator that answers the source port replies to it.
+  if (s.Int("master_port", 0, kMaxPort, v)) out.master_port = static_cast<uint16_t>(v);
+  s.Millis("cycle_ms", kMaxCycleMs, out.cycle);
+  s.Millis("reply_timeout_ms", kMaxReplyTimeoutMs, out.reply_timeout);
+  if (s.Int("lost_after_timeouts", 1, kMaxLostAfterTimeouts, v)) {
+    out.lost_after_timeouts = static_cast<int>(v);
+  }
+}
+
+void ParseAxis(const Section& drive, AxisConfig& out) {
+  auto node = drive.Get("axis");
+  if (!node) {
+    // Travel and dynamics limits guard the machine; they have no safe default (decision 401).
+    drive.errors().Add(drive.Child("axis"),
+                       "required (min_mm, max_mm, max_velocity_mm_s, "
+                       "max_acceleration_mm_s2)",
+                       YAML::Node());
+    return;
+  }
+  const Section s(*node, drive.Child("axis"),
+                  {"kind", "min_mm", "max_mm", "max_velocity_mm_s", "max_acceleration_mm_s2"},
+                  drive.errors());
+  if (!node->IsNull() && !node->IsMap()) return;
+  std::string kind;
+  if (s.String("kind", kind)) {
+    if (kind == "linear") {
+      out.kind = AxisKind::kLinear;
+    } else if (kind == "rotary") {
+      out.kind = AxisKind::kRotary;
+    } else {
+      s.errors().Add(s.Child("kind"), absl::StrCat("'", kind, "' is not one of [linear, rotary]"),
+                     *s.Get("kind"));
+    }
+  }
+  const bool have_min = s.Double("min_mm", out.min_mm, /*required=*/true);
+  const bool have_max = s.Double("max_mm", out.max_mm, /*required=*/true);
+  if (have_min && have_max && !(out.max_mm > out.min_mm)) {
+    s.errors().Add(s.Child("max_mm"),
+                   absl::StrCat(out.max_mm, " must be greater than min_mm ", out.min_mm),
+                   *s.Get("max_mm"));
+  }
+  for (auto [key, field] :
+       {std::pair<std::string_view, double*>{"max_velocity_mm_s", &out.max_velocity_mm_s},
+        std::pair<std::string_view, double*>{"max_acceleration_mm_s2",
+                                             &out.max_acceleration_mm_s2}}) {
+    if (s.Double(key, *field, /*required=*/true) && !(*field > 0)) {
+      s.errors().Add(s.Child(key), absl::StrCat(*field, " must be greater than 0"), *s.Get(key));
+    }
+  }
+}
+
+void ParseTimeouts(const Section& drive, TimeoutConfig& out) {
+  auto node = drive.Get("timeouts");
+  if (!node) return;
+  const Section s(*node, drive.Child("timeouts"), {"request_ms", "accept_ms", "homing_ms"},
+                  drive.errors());
+  s.Millis("request_ms", kMaxRequestMs, out.request);
+  s.Millis("accept_ms", kMaxAcceptMs, out.accept);
+  s.Millis("homing_ms", kMaxHomingMs, out.homing);
+}
+
+std::string FamilyList(std::span<const std::string_view> families) {
+  std::vector<std::string> names;
+  for (std::string_view f : families) names.emplace_back(f);
+  return absl::StrCat("[", absl::StrJoin(names, ", "), "]");
+}
+
+void ParseDrives(const Section& root, std::span<const std::string_view> families,
+                 GatewayConfig& cfg) {
+  const YAML::Node node = *root.Get("drives");
+  Errors& errors = root.errors();
+  if (!node.IsSequence() || node.size() == 0) {
+    // An empty list is more likely a templating slip than a wish for simulators (decision 402).
+    errors.Add("drives",
+               node.IsSequence() || node.IsNull()
+                   ? std::string("must list at least one drive (omit the key for demo mode)")
+                   : absl::StrCat("expected a sequence, got ", KindName(node)),
+               node);
+    return;
+  }
+  std::map<std::string, size_t> names;                         // name -> index
+  std::map<std::pair<std::string, uint16_t>, size_t> targets;  // linudp host:port -> index
+  for (size_t i = 0; i < node.size(); ++i) {
+    const YAML::Node entry = node[i];
+    const std::string path = absl::StrCat("drives[", i, "]");
+    if (!entry.IsMap()) {
+      errors.Add(path, absl::StrCat("expected a mapping, got ", KindName(entry)), entry);
+      continue;
+    }
+    const Section s(entry, path, {"name", "family", "linudp", "axis", "timeouts"}, errors);
+    DriveConfig drive;
+    if (s.String("name", drive.name, /*required=*/true)) {
+      if (!IsValidName(drive.name)) {
+        errors.Add(s.Child("name"), absl::StrCat("'", drive.name, "' must match [a-z0-9_-]{1,32}"),
+                   *s.Get("name"));
+      } else if (auto [it, fresh] = names.emplace(drive.name, i); !fresh) {
+        errors.Add(
+            s.Child("name"),
+            absl::StrCat("'", drive.name, "' is a duplicate of drives[", it->second, "].name"),
+            *s.Get("name"));
+      }
+    }
+    if (s.String("family", drive.family, /*required=*/true) &&
+        std::find(families.begin(), families.end(), drive.family) == families.end()) {
+      errors.Add(s.Child("family"),
+                 absl::StrCat("'", drive.family, "' is not one of ", FamilyList(families)),
+                 *s.Get("family"));
+    }
+    if (s.Has("linudp")) {
+      drive.linudp.emplace();
+      ParseLinUdp(s, *drive.linudp);
+      auto [it, fresh] = targets.emplace(std::make_pair(drive.linudp->host, drive.linudp->port), i);
+      if (!fresh) {
+        errors.Add(s.Child("linudp"),
+                   absl::StrCat(drive.linudp->host, ":", drive.linudp->port,
+                                " is also the address of drives[", it->second, "]"),
+                   *s.Get("linudp"));
+      }
+    } else if (drive.family == "linmot") {
+      // linmot-linudp.md §1: the LinMot family talks LinUDP, so it needs the drive's address.
+      errors.Add(s.Child("linudp"), "required for family linmot", YAML::Node());
+    }
+    ParseAxis(s, drive.axis);
+    ParseTimeouts(s, drive.timeouts);
+    cfg.drives.push_back(std::move(drive));
+  }
+}
+
+absl::StatusOr<GatewayConfig> ParseDocument(const YAML::Node& doc,
+                                            std::span<const std::string_view> families) {
+  GatewayConfig cfg;
+  Errors errors;
+  const Section root(doc, "", {"listen", "data_dir", "drives"}, errors);
+  if (!doc.IsNull() && !doc.IsMap()) return errors.ToStatus();
+  ParseListen(root, cfg.listen);
+  if (root.String("data_dir", cfg.data_dir) && cfg.data_dir.empty()) {
+    errors.Add("data_dir", "must not be empty", *root.Get("data_dir"));
+  }
+  if (root.Has("drives")) {
+    cfg.demo = false;
+    ParseDrives(root, families, cfg);
+  }
+  if (!errors.empty()) return errors.ToStatus();
+  return cfg;
+}
+
+}  // namespace
+
+absl::StatusOr<GatewayConfig> ParseConfig(std::string_view yaml_text,
+                                          std::span<const std::string_view> families) {
+  if (yaml_text.size() > kMaxConfigBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("config: ", yaml_text.size(), " bytes exceeds ", kMaxConfigBytes));
+  }
+  try {
+    const std::vector<YAML::Node> docs = YAML::LoadAll(std::string(yaml_text));
+    if (docs.size() > 1) {
+      return absl::InvalidArgumentError(absl::StrCat("config: ", docs.size(),
+                                                     " YAML documents, expected one (line ",
+                                                     docs[1].Mark().line + 1, ")"));
+    }
+    absl::StatusOr<GatewayConfig> cfg =
+        ParseDocument(docs.empty() ? YAML::Node(YAML::NodeType::Null) : docs.front(), families);
+    if (cfg.ok()) cfg->source_yaml = std::string(yaml_text);
+    return cfg;
+  } catch (const YAML::Exception& e) {
+    // e.mark is 0-based; the text editors people use count from 1.
+    if (e.mark.is_null()) return absl::InvalidArgumentError(absl::StrCat("config: ", e.msg));
+    return absl::InvalidArgumentError(absl::StrCat("config: YAML error at line ", e.mark.line + 1,
+                                                   ", column ", e.mark.column + 1, ": ", e.msg));
+  } catch (const std::exception& e) {
+    return absl::InvalidArgumentError(absl::StrCat("config: ", e.what()));
+  } catch (...) {
+    return absl::InternalError("config: unknown exception while parsing YAML");
+  }
+}
+
+absl::StatusOr<GatewayConfig> LoadConfigFile(const std::string& path,
+                                             std::span<const std::string_view> families) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (status.type() == std::filesystem::file_type::not_found) {
+    return absl::NotFoundError(absl::StrCat("config: file not found (path=", path, ")"));
+  }
+  if (ec) {
+    return absl::PermissionDeniedError(
+        absl::StrCat("config: cannot stat (path=", path, ", error=", ec.message(), ")"));
+  }
+  if (std::filesystem::is_directory(status)) {
+    return absl::InvalidArgumentError(absl::StrCat("config: is a directory (path=", path, ")"));
+  }
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec && size > kMaxConfigBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("config: ", size, " bytes exceeds ", kMaxConfigBytes, " (path=", path, ")"));
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    return absl::PermissionDeniedError(absl::StrCat("config: cannot read (path=", path, ")"));
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) {
+    return absl::UnavailableError(absl::StrCat("config: read failed (path=", path, ")"));
+  }
+  absl::StatusOr<GatewayConfig> cfg = ParseConfig(text.str(), families);
+  if (!cfg.ok()) {
+    return absl::Status(cfg.status().code(), absl::StrCat(path, ": ", cfg.status().message()));
+  }
+  return cfg;
+}
+
+std::vector<DriveConfig> DemoDrives(uint16_t first_drive_port) {
+  std::vector<DriveConfig> drives;
+  for (int i = 0; i < 2; ++i) {
+    DriveConfig d;
+    d.name = absl::StrCat("x", i + 1);
+    d.family = "linmot";
+    // A PS01-37x120-style slider: 150 mm usable stroke, motor limits well below catalogue.
+    d.axis.kind = AxisKind::kLinear;
+    d.axis.min_mm = 0;
+    d.axis.max_mm = 150;
+    d.axis.max_velocity_mm_s = 2000;
+    d.axis.max_acceleration_mm_s2 = 20000;
+    LinUdpConfig udp;
+    udp.host = "127.0.0.1";
+    udp.port = static_cast<uint16_t>(first_drive_port + i);
+    d.linudp = udp;
+    drives.push_back(std::move(d));
+  }
+  return drives;
+}
+
+}  // namespace drivegw::config
