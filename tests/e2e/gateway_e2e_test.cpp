@@ -1,0 +1,243 @@
+// End to end over real sockets: the demo gateway (embedded simulated LinMot drives on loopback
+// UDP, SQLite file) driven through gRPC and through REST.
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <filesystem>
+#include <thread>
+
+#include "drivegw/v1/drive.grpc.pb.h"
+#include "google/rpc/error_details.pb.h"
+#include "google/rpc/status.pb.h"
+#include "server/gateway.h"
+#include "storage/audit_log.h"
+#include "storage/db.h"
+#include "tests/e2e/http_client.h"
+
+namespace drivegw::server {
+namespace {
+
+using testing::HttpRequest;
+
+class GatewayE2eTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/drivegw-e2e-XXXXXX";
+    ASSERT_NE(::mkdtemp(tmpl), nullptr);
+    data_dir_ = tmpl;
+    GatewayOptions o;
+    o.config.listen.grpc = "127.0.0.1:0";
+    o.config.listen.http = "127.0.0.1:0";
+    o.config.data_dir = data_dir_;
+    o.config.demo = true;
+    o.demo_first_port = 0;   // ephemeral simulator ports: ctest runs in parallel
+    o.demo_master_port = 0;  // ephemeral master port; the simulators answer any source port
+    auto gw = Gateway::Start(std::move(o));
+    ASSERT_TRUE(gw.ok()) << gw.status();
+    gw_ = std::move(*gw);
+    channel_ = grpc::CreateChannel("127.0.0.1:" + std::to_string(gw_->grpc_port()),
+                                   grpc::InsecureChannelCredentials());
+    stub_ = v1::DriveService::NewStub(channel_);
+  }
+  void TearDown() override {
+    gw_.reset();
+    std::filesystem::remove_all(data_dir_);
+  }
+
+  // Waits until GetDrive reports `pred` or the deadline passes.
+  template <typename Pred>
+  v1::Drive WaitFor(const std::string& name, Pred pred, std::chrono::seconds timeout = std::chrono::seconds(10)) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    v1::Drive d;
+    while (std::chrono::steady_clock::now() < deadline) {
+      grpc::ClientContext ctx;
+      v1::GetDriveRequest req;
+      req.set_name(name);
+      if (stub_->GetDrive(&ctx, req, &d).ok() && pred(d)) return d;
+      // Status arrives every LinUDP cycle (5 ms); a short poll keeps the test quick.
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return d;
+  }
+
+  int http() const { return gw_->http_port(); }
+
+  std::string data_dir_;
+  std::unique_ptr<Gateway> gw_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::DriveService::Stub> stub_;
+};
+
+TEST_F(GatewayE2eTest, ListDrives_Demo_ListsTwoOnlineDrives) {
+  WaitFor("drives/x1", [](const v1::Drive& d) { return d.status().state() != v1::OFFLINE; });
+  grpc::ClientContext ctx;
+  v1::ListDrivesResponse resp;
+  ASSERT_TRUE(stub_->ListDrives(&ctx, v1::ListDrivesRequest(), &resp).ok());
+  ASSERT_EQ(resp.drives_size(), 2);
+  EXPECT_EQ(resp.drives(0).name(), "drives/x1");
+  EXPECT_EQ(resp.drives(1).name(), "drives/x2");
+  EXPECT_EQ(resp.drives(0).family(), "linmot");
+  EXPECT_NE(resp.drives(0).status().state(), v1::OFFLINE);
+}
+
+TEST_F(GatewayE2eTest, MoveAbsolute_Grpc_WatchSeesRampToTargetAndDone) {
+  {
+    grpc::ClientContext ctx;
+    v1::EnableRequest req;
+    req.set_name("drives/x1");
+    v1::CommandHandle h;
+    grpc::Status s = stub_->Enable(&ctx, req, &h);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    EXPECT_EQ(h.state(), v1::DONE);
+  }
+  // Watch in the background and record every position and the final command state.
+  grpc::ClientContext watch_ctx;
+  v1::WatchDrivesRequest wreq;
+  wreq.add_names("drives/x1");
+  wreq.set_max_rate_hz(200);
+  auto reader = stub_->WatchDrives(&watch_ctx, wreq);
+  std::vector<double> positions;
+  std::atomic<bool> done_seen{false};
+  std::string moved_command;
+  std::thread watcher([&] {
+    v1::DriveStatus st;
+    while (reader->Read(&st)) {
+      positions.push_back(st.position_mm());
+      if (!moved_command.empty() && st.last_command().name() == moved_command &&
+          st.last_command().state() == v1::DONE) {
+        done_seen = true;
+        break;
+      }
+    }
+  });
+  v1::CommandHandle move;
+  {
+    grpc::ClientContext ctx;
+    v1::MoveAbsoluteRequest req;
+    req.set_name("drives/x1");
+    req.set_position_mm(50);
+    req.set_velocity_mm_s(500);
+    req.set_acceleration_mm_s2(5000);
+    grpc::Status s = stub_->MoveAbsolute(&ctx, req, &move);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    EXPECT_TRUE(move.state() == v1::ACTIVE || move.state() == v1::DONE) << move.ShortDebugString();
+    EXPECT_EQ(move.kind(), "MoveAbsolute");
+  }
+  moved_command = move.name();
+  const v1::Drive d = WaitFor("drives/x1", [&](const v1::Drive& d) {
+    return d.status().last_command().name() == move.name() && d.status().last_command().state() == v1::DONE;
+  });
+  EXPECT_EQ(d.status().last_command().state(), v1::DONE);
+  EXPECT_NEAR(d.status().position_mm(), 50, 0.01);
+  EXPECT_TRUE(d.status().in_target());
+  // The stream must have carried intermediate positions of the ramp and then DONE.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (!done_seen && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  watch_ctx.TryCancel();
+  watcher.join();
+  EXPECT_TRUE(done_seen);
+  int intermediate = 0;
+  for (double p : positions) {
+    if (p > 11 && p < 49) ++intermediate;
+  }
+  EXPECT_GE(intermediate, 3) << "watch stream did not show the ramp";
+}
+
+TEST_F(GatewayE2eTest, MoveAbsolute_VelocityAboveAxis_BadRequestNamesField) {
+  grpc::ClientContext ctx;
+  v1::MoveAbsoluteRequest req;
+  req.set_name("drives/x1");
+  req.set_position_mm(50);
+  req.set_velocity_mm_s(1e9);
+  req.set_acceleration_mm_s2(5000);
+  v1::CommandHandle h;
+  grpc::Status s = stub_->MoveAbsolute(&ctx, req, &h);
+  ASSERT_EQ(s.error_code(), grpc::StatusCode::OUT_OF_RANGE);
+  EXPECT_NE(s.error_message().find("move_absolute.velocity_mm_s"), std::string::npos) << s.error_message();
+  google::rpc::Status details;
+  ASSERT_TRUE(details.ParseFromString(s.error_details()));
+  ASSERT_EQ(details.details_size(), 1);
+  google::rpc::BadRequest br;
+  ASSERT_TRUE(details.details(0).UnpackTo(&br));
+  ASSERT_EQ(br.field_violations_size(), 1);
+  EXPECT_EQ(br.field_violations(0).field(), "move_absolute.velocity_mm_s");
+}
+
+TEST_F(GatewayE2eTest, GetDrive_Unknown_NotFound) {
+  grpc::ClientContext ctx;
+  v1::GetDriveRequest req;
+  req.set_name("drives/nope");
+  v1::Drive d;
+  EXPECT_EQ(stub_->GetDrive(&ctx, req, &d).error_code(), grpc::StatusCode::NOT_FOUND);
+}
+
+TEST_F(GatewayE2eTest, Rest_EnableAndMove_ReachesTargetAndIsAudited) {
+  WaitFor("drives/x2", [](const v1::Drive& d) { return d.status().state() != v1::OFFLINE; });
+  auto list = HttpRequest(http(), "GET", "/v1/drives");
+  ASSERT_EQ(list.status, 200) << list.body;
+  EXPECT_NE(list.body.find("\"drives/x2\""), std::string::npos) << list.body;
+
+  auto en = HttpRequest(http(), "POST", "/v1/drives/x2:enable", "");
+  ASSERT_EQ(en.status, 200) << en.body;
+  EXPECT_NE(en.body.find("\"DONE\""), std::string::npos) << en.body;
+
+  auto mv = HttpRequest(http(), "POST", "/v1/drives/x2:moveAbsolute",
+                        R"({"position_mm": 50, "velocity_mm_s": 500, "acceleration_mm_s2": 5000})");
+  ASSERT_EQ(mv.status, 200) << mv.body;
+  EXPECT_NE(mv.body.find("MoveAbsolute"), std::string::npos) << mv.body;
+
+  const v1::Drive d = WaitFor("drives/x2", [](const v1::Drive& d) {
+    return d.status().last_command().kind() == "MoveAbsolute" && d.status().last_command().state() == v1::DONE;
+  });
+  EXPECT_NEAR(d.status().position_mm(), 50, 0.01);
+
+  auto got = HttpRequest(http(), "GET", "/v1/drives/x2");
+  ASSERT_EQ(got.status, 200);
+  EXPECT_NE(got.body.find("\"position_mm\""), std::string::npos) << got.body;
+
+  // Every mutating call is in the audit log with the REST client's address.
+  auto db = storage::Db::Open((std::filesystem::path(data_dir_) / "drivegw.db").string());
+  ASSERT_TRUE(db.ok()) << db.status();
+  storage::AuditLog audit(*db);
+  storage::AuditQuery q;
+  q.drive = "x2";
+  auto records = audit.Query(q);
+  ASSERT_TRUE(records.ok()) << records.status();
+  ASSERT_GE(records->size(), 2u);
+  EXPECT_EQ((*records)[0].action, "MoveAbsolute");
+  EXPECT_EQ((*records)[0].principal, "anonymous");
+  EXPECT_EQ((*records)[0].result_code, 0);
+  EXPECT_NE((*records)[0].source_address.find("127.0.0.1"), std::string::npos) << (*records)[0].source_address;
+  EXPECT_NE((*records)[0].request_json.find("position_mm"), std::string::npos);
+}
+
+TEST_F(GatewayE2eTest, Rest_BadInput_ClearErrorsAndGatewayStaysUp) {
+  auto bad_json = HttpRequest(http(), "POST", "/v1/drives/x1:moveAbsolute", "{\"position_mm\": \"far\"}");
+  EXPECT_EQ(bad_json.status, 400) << bad_json.body;
+  EXPECT_NE(bad_json.body.find("position_mm"), std::string::npos) << bad_json.body;
+
+  auto out_of_stroke = HttpRequest(http(), "POST", "/v1/drives/x1:moveAbsolute",
+                                   R"({"position_mm": 5000, "velocity_mm_s": 100, "acceleration_mm_s2": 1000})");
+  EXPECT_EQ(out_of_stroke.status, 400) << out_of_stroke.body;
+  EXPECT_NE(out_of_stroke.body.find("move_absolute.position_mm"), std::string::npos) << out_of_stroke.body;
+  EXPECT_NE(out_of_stroke.body.find("max_mm"), std::string::npos) << out_of_stroke.body;
+
+  auto unknown = HttpRequest(http(), "POST", "/v1/drives/zz:enable", "");
+  EXPECT_EQ(unknown.status, 404) << unknown.body;
+
+  auto not_enabled = HttpRequest(http(), "POST", "/v1/drives/x1:moveAbsolute",
+                                 R"({"position_mm": 20, "velocity_mm_s": 100, "acceleration_mm_s2": 1000})");
+  EXPECT_EQ(not_enabled.status, 400) << not_enabled.body;  // FAILED_PRECONDITION: drive not enabled
+
+  auto openapi = HttpRequest(http(), "GET", "/openapi.json");
+  EXPECT_EQ(openapi.status, 200);
+  EXPECT_NE(openapi.body.find("/v1/drives"), std::string::npos);
+
+  auto still_up = HttpRequest(http(), "GET", "/v1/drives");
+  EXPECT_EQ(still_up.status, 200);
+}
+
+}  // namespace
+}  // namespace drivegw::server
