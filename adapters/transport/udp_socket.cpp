@@ -44,12 +44,12 @@ int PollMillis(Clock::duration remaining) {
 
 }  // namespace
 
-absl::StatusOr<UdpSocket> UdpSocket::Bind(const Endpoint& local) {
+absl::StatusOr<UdpSocket> UdpSocket::Bind(const Endpoint& local, BindOptions options) {
   const std::string where = absl::StrCat("udp bind ", local.ToString(), ": ");
   const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (fd < 0) return absl::InternalError(absl::StrCat(where, "socket: ", ErrnoText(errno)));
   const int one = 1;
-  if (::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one)) != 0) {
+  if (options.reuse_address && ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one)) != 0) {
     const int err = errno;
     ::close(fd);
     return absl::InternalError(absl::StrCat(where, "SO_REUSEADDR: ", ErrnoText(err)));

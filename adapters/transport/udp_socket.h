@@ -35,9 +35,18 @@ class UdpSocket {
  public:
   static constexpr size_t kMaxDatagramSize = 65507;  // largest IPv4 UDP payload
 
-  // Binds `local` (port 0 = ephemeral) with SO_REUSEADDR, non-blocking. Errors name the address
-  // and the errno text: "udp bind 127.0.0.1:41136: Address already in use".
-  static absl::StatusOr<UdpSocket> Bind(const Endpoint& local);
+  struct BindOptions {
+    // SO_REUSEADDR. On Linux this lets a second UDP socket bind the very same address while
+    // the first is open (both set it) and the kernel then hands unicast datagrams to only one
+    // of them; false makes such a collision an error (docs/decisions/202-udp-reuseaddr.md).
+    bool reuse_address = true;
+  };
+
+  // Binds `local` (port 0 = ephemeral), non-blocking. Errors name the address and the errno
+  // text: "udp bind 127.0.0.1:41136: Address already in use" (Unavailable for address in use
+  // or not available, Internal otherwise).
+  static absl::StatusOr<UdpSocket> Bind(const Endpoint& local, BindOptions options);
+  static absl::StatusOr<UdpSocket> Bind(const Endpoint& local) { return Bind(local, {}); }
 
   UdpSocket(UdpSocket&& other) noexcept;
   UdpSocket& operator=(UdpSocket&& other) noexcept;
