@@ -1,0 +1,195 @@
+// Db and Statement against a real SQLite file: pragmas, WAL files, binding, error messages.
+#include "storage/db.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "tests/storage/temp_dir.h"
+
+namespace drivegw::storage {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::TempDir;
+
+int64_t PragmaInt(Db& db, const char* sql) {
+  auto stmt = db.Prepare(sql);
+  EXPECT_TRUE(stmt.ok()) << stmt.status();
+  auto row = stmt->Step();
+  EXPECT_TRUE(row.ok() && *row);
+  return stmt->ColumnInt64(0);
+}
+
+TEST(DbTest, Open_FileDatabase_JournalModeIsWalAndWalFileAppearsAfterWrite) {
+  TempDir dir;
+  const std::string path = dir.File("t.db");
+  auto db = Db::Open(path);
+  ASSERT_TRUE(db.ok()) << db.status();
+  auto mode = db->JournalMode();
+  ASSERT_TRUE(mode.ok()) << mode.status();
+  EXPECT_EQ(*mode, "wal");
+  ASSERT_TRUE(db->Exec("CREATE TABLE t (x INTEGER); INSERT INTO t VALUES (1)").ok());
+  EXPECT_TRUE(std::filesystem::exists(path + "-wal"));
+  EXPECT_TRUE(std::filesystem::exists(path + "-shm"));
+}
+
+TEST(DbTest, Open_Pragmas_SynchronousNormalBusyTimeoutForeignKeys) {
+  TempDir dir;
+  auto db = Db::Open(dir.File("t.db"));
+  ASSERT_TRUE(db.ok()) << db.status();
+  EXPECT_EQ(PragmaInt(*db, "PRAGMA synchronous"), 1);  // NORMAL
+  EXPECT_EQ(PragmaInt(*db, "PRAGMA busy_timeout"), 5000);
+  EXPECT_EQ(PragmaInt(*db, "PRAGMA foreign_keys"), 1);
+}
+
+TEST(DbTest, Open_InMemory_FailsBecauseWalNeedsAFile) {
+  auto db = Db::Open(":memory:");
+  ASSERT_FALSE(db.ok());
+  EXPECT_EQ(db.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(db.status().message(), HasSubstr("journal_mode is 'memory', want 'wal'"));
+}
+
+TEST(DbTest, Open_MissingParentDirectory_FailsNamingPath) {
+  TempDir dir;
+  const std::string path = dir.File("no/such/dir/t.db");
+  auto db = Db::Open(path);
+  ASSERT_FALSE(db.ok());
+  EXPECT_THAT(db.status().message(), HasSubstr(path));
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "no"));
+}
+
+TEST(DbTest, Open_NotADatabase_FailsWithDataLoss) {
+  TempDir dir;
+  const std::string path = dir.File("junk.db");
+  {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    for (int i = 0; i < 256; ++i) std::fputs("this is not sqlite ", f);
+    std::fclose(f);
+  }
+  auto db = Db::Open(path);
+  ASSERT_FALSE(db.ok());
+  EXPECT_EQ(db.status().code(), absl::StatusCode::kDataLoss) << db.status();
+}
+
+TEST(DbTest, Exec_BadSql_ErrorCarriesSqliteMessageAndFirstWords) {
+  TempDir dir;
+  auto db = Db::Open(dir.File("t.db"));
+  ASSERT_TRUE(db.ok());
+  absl::Status s = db->Exec("SELECT nope FROM missing_table WHERE 1 = 1");
+  ASSERT_FALSE(s.ok());
+  EXPECT_THAT(s.message(), HasSubstr("no such table: missing_table"));
+  EXPECT_THAT(s.message(), HasSubstr("sql=\"SELECT nope FROM missing_table\""));
+}
+
+TEST(DbTest, Statement_BindEveryTypeAndReadBack_RoundTrips) {
+  TempDir dir;
+  auto db = Db::Open(dir.File("t.db"));
+  ASSERT_TRUE(db.ok());
+  ASSERT_TRUE(
+      db->Exec("CREATE TABLE t (i INTEGER, l INTEGER, d REAL, s TEXT, n TEXT, e TEXT)").ok());
+  auto insert = db->Prepare("INSERT INTO t VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+  ASSERT_TRUE(insert.ok()) << insert.status();
+  ASSERT_TRUE(insert->Bind(1, 42).ok());
+  ASSERT_TRUE(insert->Bind(2, int64_t{1} << 40).ok());
+  ASSERT_TRUE(insert->Bind(3, 2.5).ok());
+  ASSERT_TRUE(insert->Bind(4, std::string_view("h\0i", 3)).ok());
+  ASSERT_TRUE(insert->Bind(5, nullptr).ok());
+  ASSERT_TRUE(insert->Bind(6, std::string_view()).ok());
+  ASSERT_TRUE(insert->Run().ok());
+
+  auto select = db->Prepare("SELECT i, l, d, s, n, e, e IS NULL FROM t");
+  ASSERT_TRUE(select.ok());
+  auto row = select->Step();
+  ASSERT_TRUE(row.ok() && *row);
+  EXPECT_EQ(select->ColumnCount(), 7);
+  EXPECT_EQ(select->ColumnInt(0), 42);
+  EXPECT_EQ(select->ColumnInt64(1), int64_t{1} << 40);
+  EXPECT_DOUBLE_EQ(select->ColumnDouble(2), 2.5);
+  EXPECT_EQ(select->ColumnText(3), std::string("h\0i", 3));
+  EXPECT_TRUE(select->ColumnIsNull(4));
+  EXPECT_EQ(select->ColumnText(4), "");
+  EXPECT_FALSE(select->ColumnIsNull(5));  // an empty view binds '' rather than NULL
+  EXPECT_EQ(select->ColumnInt(6), 0);
+  row = select->Step();
+  ASSERT_TRUE(row.ok());
+  EXPECT_FALSE(*row);
+}
+
+TEST(DbTest, Statement_BindOutOfRangeIndex_ReportsIndex) {
+  TempDir dir;
+  auto db = Db::Open(dir.File("t.db"));
+  ASSERT_TRUE(db.ok());
+  auto stmt = db->Prepare("SELECT ?1");
+  ASSERT_TRUE(stmt.ok());
+  absl::Status s = stmt->Bind(7, 1);
+  EXPECT_FALSE(s.ok());
+  EXPECT_THAT(s.message(), HasSubstr("binding parameter 7"));
+}
+
+TEST(DbTest, Statement_ResetClearsBindings_ReusableForNextRow) {
+  TempDir dir;
+  auto db = Db::Open(dir.File("t.db"));
+  ASSERT_TRUE(db.ok());
+  ASSERT_TRUE(db->Exec("CREATE TABLE t (x INTEGER NOT NULL)").ok());
+  auto insert = db->Prepare("INSERT INTO t VALUES (?1)");
+  ASSERT_TRUE(insert.ok());
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(insert->Bind(1, i).ok());
+    ASSERT_TRUE(insert->Run().ok());
+    ASSERT_TRUE(insert->Reset().ok());
+  }
+  // Bindings were cleared, so x would be NULL: the NOT NULL constraint fires.
+  absl::Status s = insert->Run();
+  EXPECT_EQ(s.code(), absl::StatusCode::kFailedPrecondition) << s;
+  EXPECT_THAT(s.message(), HasSubstr("NOT NULL constraint failed"));
+  EXPECT_THAT(s.message(), HasSubstr("sql=\"INSERT INTO t VALUES\""));
+}
+
+TEST(DbTest, Transaction_BodyFails_RollsBackAndReturnsBodyError) {
+  TempDir dir;
+  auto db = Db::Open(dir.File("t.db"));
+  ASSERT_TRUE(db.ok());
+  ASSERT_TRUE(db->Exec("CREATE TABLE t (x INTEGER)").ok());
+  absl::Status s = db->Transaction([&]() -> absl::Status {
+    EXPECT_TRUE(db->Exec("INSERT INTO t VALUES (1)").ok());
+    return absl::AbortedError("body says no");
+  });
+  EXPECT_EQ(s, absl::AbortedError("body says no"));
+  EXPECT_EQ(PragmaInt(*db, "SELECT COUNT(*) FROM t"), 0);
+
+  ASSERT_TRUE(db->Transaction([&] { return db->Exec("INSERT INTO t VALUES (2)"); }).ok());
+  EXPECT_EQ(PragmaInt(*db, "SELECT COUNT(*) FROM t"), 1);
+}
+
+TEST(DbTest, Move_TransfersConnection_MovedFromDestructsSafely) {
+  TempDir dir;
+  auto opened = Db::Open(dir.File("t.db"));
+  ASSERT_TRUE(opened.ok());
+  Db a = std::move(*opened);
+  ASSERT_TRUE(a.Exec("CREATE TABLE t (x INTEGER)").ok());
+  Db b = std::move(a);
+  EXPECT_TRUE(b.Exec("INSERT INTO t VALUES (1)").ok());
+  EXPECT_EQ(b.path(), dir.File("t.db"));
+}
+
+TEST(DbTest, StatementOutlivesDb_CloseIsDeferred) {
+  TempDir dir;
+  Statement stmt;
+  {
+    auto db = Db::Open(dir.File("t.db"));
+    ASSERT_TRUE(db.ok());
+    auto s = db->Prepare("SELECT 7");
+    ASSERT_TRUE(s.ok());
+    stmt = std::move(*s);
+  }
+  // sqlite3_close_v2 keeps the connection until the last statement is finalized.
+  auto row = stmt.Step();
+  ASSERT_TRUE(row.ok() && *row);
+  EXPECT_EQ(stmt.ColumnInt(0), 7);
+}
+
+}  // namespace
+}  // namespace drivegw::storage
