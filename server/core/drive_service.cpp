@@ -45,7 +45,7 @@ DriveServiceCore::DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives, s
 
 absl::StatusOr<Drive*> DriveServiceCore::Find(const std::string& field, const std::string& name) const {
   if (name.empty()) return FieldError(field, "is required (\"drives/{drive}\")");
-  std::string_view id = name;
+  absl::string_view id = name;
   if (absl::StartsWith(id, "drives/")) id.remove_prefix(7);
   if (id.empty() || absl::StrContains(id, '/')) {
     return FieldError(field, absl::StrCat("'", name, "' is not a drive name (\"drives/{drive}\")"));

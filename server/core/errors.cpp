@@ -22,7 +22,7 @@ absl::Status FieldErrors(const std::vector<FieldViolation>& violations, absl::St
     parts.push_back(absl::StrCat(v.field, ": ", v.description));
   }
   absl::Status s(code, absl::StrJoin(parts, "; "));
-  s.SetPayload(kBadRequestUrl, absl::Cord(br.SerializeAsString()));
+  s.SetPayload(absl::string_view(kBadRequestUrl.data(), kBadRequestUrl.size()), absl::Cord(br.SerializeAsString()));
   return s;
 }
 
@@ -32,7 +32,7 @@ absl::Status WithErrorInfo(absl::Status status, std::string_view reason,
   info.set_reason(std::string(reason));
   info.set_domain("drivegw");
   for (const auto& [k, v] : metadata) (*info.mutable_metadata())[k] = v;
-  status.SetPayload(kErrorInfoUrl, absl::Cord(info.SerializeAsString()));
+  status.SetPayload(absl::string_view(kErrorInfoUrl.data(), kErrorInfoUrl.size()), absl::Cord(info.SerializeAsString()));
   return status;
 }
 

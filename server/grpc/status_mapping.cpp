@@ -14,7 +14,7 @@ grpc::Status ToGrpcStatus(const absl::Status& s) {
   google::rpc::Status details;
   details.set_code(static_cast<int>(s.code()));
   details.set_message(std::string(s.message()));
-  s.ForEachPayload([&](std::string_view url, const absl::Cord& payload) {
+  s.ForEachPayload([&](absl::string_view url, const absl::Cord& payload) {
     auto* any = details.add_details();
     any->set_type_url(std::string(url));
     any->set_value(std::string(payload));
