@@ -30,13 +30,13 @@ inline constexpr uint16_t kOperationalBits = kVoltageEnable | kQuickStopN | kAbo
 
 // Recommended words of linmot-mc.md §2.7.
 inline constexpr uint16_t kAllOff = 0x0000;       // step 1a: release anti-restart (state 0 -> 1)
-inline constexpr uint16_t kSwitchedOff = 0x003E;  // step 1b / 7: operational bits, Switch On = 0
+inline constexpr uint16_t kSwitchedOff = 0x003E;  // step 1b / 7: kOperational without Switch On
 inline constexpr uint16_t kOperational = 0x003F;  // step 2 / 4: switch on and run commands
 inline constexpr uint16_t kHoming = 0x083F;       // step 3: kOperational | kHome
 inline constexpr uint16_t kAcknowledge = 0x00BF;  // step 5: kOperational | kErrorAcknowledge
 inline constexpr uint16_t kOperationDisabled = 0x0037;  // step 6: clear Enable Operation (-> 6)
 
-static_assert(kSwitchedOff == kOperationalBits);
+static_assert(kSwitchedOff == (kOperational & ~kSwitchOn));
 static_assert(kOperational == (kOperationalBits | kSwitchOn | kEnableOperation));
 static_assert(kHoming == (kOperational | kHome));
 static_assert(kAcknowledge == (kOperational | kErrorAcknowledge));

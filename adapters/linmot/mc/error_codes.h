@@ -72,7 +72,7 @@ bool IsFatal(uint16_t code);
 
 // A LinMot error code riding on an absl::Status (STYLE.md §6 "Errors"): payload under this type
 // URL, value = the code as 4 upper-case hex digits ("0081").
-inline constexpr std::string_view kErrorCodePayloadUrl = "type.drivegw.dev/linmot.mc.ErrorCode";
+inline constexpr char kErrorCodePayloadUrl[] = "type.drivegw.dev/linmot.mc.ErrorCode";
 void AttachErrorCode(absl::Status& status, uint16_t code);
 std::optional<uint16_t> GetErrorCode(const absl::Status& status);
 

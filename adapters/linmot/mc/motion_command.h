@@ -228,7 +228,7 @@ absl::StatusOr<Header> DecodeHeader(std::span<const uint8_t> block);
 absl::StatusOr<DecodedMotionCommand> DecodeMotionCommand(std::span<const uint8_t> block);
 
 // Payload type URL carrying the raw header (4 hex digits) on DecodeMotionCommand's NotFound.
-inline constexpr std::string_view kHeaderPayloadUrl = "type.drivegw.dev/linmot.mc.Header";
+inline constexpr char kHeaderPayloadUrl[] = "type.drivegw.dev/linmot.mc.Header";
 // The header attached to a NotFound from DecodeMotionCommand, if any.
 std::optional<Header> UnknownCommandHeader(const absl::Status& status);
 
