@@ -65,7 +65,9 @@ class Profile {
                               std::optional<double> target = std::nullopt);
 
   // State `t` seconds after the profile start; t < 0 reads as 0, t >= duration() gives the end
-  // state (finite: target, v = a = 0; endless: coasting at the final velocity, a = 0).
+  // state (finite: target, v = a = 0; endless: coasting at the final velocity, a = 0). A time
+  // within kEndTolerance of the end counts as the end, so summed segment durations and summed
+  // ticks that differ only by rounding agree on when a motion finishes.
   Kinematics At(double t) const;
   // Time at which the motion is finished; +infinity for an endless profile.
   double duration() const;
@@ -74,7 +76,10 @@ class Profile {
   double target() const { return target_; }
   bool endless() const { return endless_; }
   // True while set-point generation runs at time t (linmot-mc.md §6: Motion Active).
-  bool Active(double t) const { return endless_ || t < segments_end_; }
+  bool Active(double t) const { return endless_ || t < segments_end_ - kEndTolerance; }
+
+  // 1 ns: the resolution of drivegw::Clock, far below any simulator tick.
+  static constexpr double kEndTolerance = 1e-9;
 
   const Kinematics& start() const { return start_; }
   const std::vector<Segment>& segments() const { return segments_; }
