@@ -1,0 +1,1169 @@
+// LinMotUdpDrive: control word sequences, MC count handshake, RTC transactions, status mapping.
+#include "adapters/linmot/linudp/drive.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "absl/strings/cord.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "adapters/core/log.h"
+#include "adapters/core/status.h"
+#include "adapters/linmot/mc/control_word.h"
+#include "adapters/linmot/mc/error_codes.h"
+#include "adapters/linmot/mc/warn_word.h"
+
+namespace drivegw::linmot::linudp {
+namespace {
+
+using mc::MainState;
+
+constexpr uint8_t kState(MainState s) { return static_cast<uint8_t>(s); }
+
+// linmot-mc.md §2.2: states in which an error is pending (14 quick-stops into 4).
+bool IsFaultState(uint8_t ms) {
+  return ms == kState(MainState::kSetupError) || ms == kState(MainState::kError) ||
+         ms == kState(MainState::kErrorBehaviourQuickStop);
+}
+// States with the power stage off (0-4): the end of Disable.
+bool IsPowerOff(uint8_t ms) { return ms <= kState(MainState::kError); }
+
+// Heartbeat: an unchanged status is republished at least this often (dashboard liveness).
+constexpr Duration kHeartbeat = std::chrono::seconds(1);
+// Velocity from positions at least this far apart (decision 703).
+constexpr Duration kMinVelocityWindow = std::chrono::milliseconds(20);
+
+// A-09 time-outs of RTC commands that take long on a real drive.
+Duration RtcTimeout(uint8_t command_id, Duration normal) {
+  if (command_id >= 0x30 && command_id <= 0x36) return std::chrono::seconds(45);
+  if (command_id == 0x40 || command_id == 0x80) return std::chrono::seconds(120);
+  return normal;
+}
+
+// The RTC status riding on an error (STYLE.md §6 "Errors": the drive's own code as payload).
+constexpr char kRtcStatusPayloadUrl[] = "type.drivegw.dev/linmot.linudp.RtcStatus";
+
+// Checked mm <-> wire conversions with the scales of adapters/core/units.h (linmot-mc.md §0.4).
+// Local because units.h does not compile against Debian's abseil 20220623, whose
+// absl::string_view is not std::string_view (StrCat(std::string_view, ...) has no overload);
+// reported, to be replaced by units.h once fixed.
+namespace units {
+constexpr double kPositionPerMm = 10'000.0;     // 0.1 µm
+constexpr double kVelocityPerMmS = 1'000.0;     // 1E-6 m/s
+constexpr double kAccelerationPerMmS2 = 100.0;  // 1E-5 m/s²
+
+absl::StatusOr<int64_t> ToFixed(const std::string& field, double value, double scale, int64_t lo,
+                                int64_t hi) {
+  if (!std::isfinite(value)) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": ", value, " is not a finite number"));
+  }
+  const double scaled = std::nearbyint(value * scale);
+  if (scaled < static_cast<double>(lo) || scaled > static_cast<double>(hi)) {
+    return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " is outside the wire range [",
+                                              static_cast<double>(lo) / scale, ", ",
+                                              static_cast<double>(hi) / scale, "]"));
+  }
+  return static_cast<int64_t>(scaled);
+}
+absl::StatusOr<int32_t> PositionToWire(const std::string& field, double mm) {
+  DGW_ASSIGN_OR_RETURN(const int64_t v,
+                       ToFixed(field, mm, kPositionPerMm, std::numeric_limits<int32_t>::min(),
+                               std::numeric_limits<int32_t>::max()));
+  return static_cast<int32_t>(v);
+}
+absl::StatusOr<uint32_t> VelocityToWire(const std::string& field, double mm_s) {
+  DGW_ASSIGN_OR_RETURN(const int64_t v, ToFixed(field, mm_s, kVelocityPerMmS, 0, 0x7FFF'FFFF));
+  return static_cast<uint32_t>(v);
+}
+absl::StatusOr<uint32_t> AccelerationToWire(const std::string& field, double mm_s2) {
+  DGW_ASSIGN_OR_RETURN(const int64_t v,
+                       ToFixed(field, mm_s2, kAccelerationPerMmS2, 0, 0x7FFF'FFFF));
+  return static_cast<uint32_t>(v);
+}
+double PositionFromWire(int64_t v) { return static_cast<double>(v) / kPositionPerMm; }
+}  // namespace units
+
+std::string Hex16(uint16_t v) { return absl::StrFormat("0x%04X", v); }
+
+bool SameStatus(const DriveStatus& a, const DriveStatus& b) {
+  return a.state == b.state && a.native.main_state == b.native.main_state &&
+         a.native.sub_state == b.native.sub_state && a.native.status_word == b.native.status_word &&
+         a.native.warn_word == b.native.warn_word && a.position_mm == b.position_mm &&
+         a.velocity_mm_s == b.velocity_mm_s && a.demand_position_mm == b.demand_position_mm &&
+         a.homed == b.homed && a.in_target == b.in_target && a.motion_active == b.motion_active &&
+         a.warnings == b.warnings && a.fault.code == b.fault.code && a.fault.fatal == b.fault.fatal;
+}
+
+// Checks a profile limit: positive (D-42: the gateway never sends a zero limit) and within the
+// axis limit.
+absl::Status CheckLimit(const std::string& field, double value, double axis_limit,
+                        const char* axis_field) {
+  if (!std::isfinite(value) || value <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": ", value, " must be positive (linmot-mc.md D-42)"));
+  }
+  if (value > axis_limit) {
+    return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " exceeds axis limit ",
+                                              axis_limit, " (", axis_field, ")"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckPosition(const std::string& field, double value, double target,
+                           const AxisConfig& axis) {
+  if (!std::isfinite(value)) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": ", value, " is not a finite number"));
+  }
+  if (target < axis.min_mm || target > axis.max_mm) {
+    if (value == target) {
+      return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " is outside the axis range [",
+                                                axis.min_mm, ", ", axis.max_mm, "]"));
+    }
+    return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " takes the axis to ", target,
+                                              ", outside the axis range [", axis.min_mm, ", ",
+                                              axis.max_mm, "]"));
+  }
+  return absl::OkStatus();
+}
+
+// Time from rest over `distance` with a trapezoid or triangle (linmot-mc.md §6.1 step 5, u = 0).
+double TrapezoidSeconds(double distance, double vmax, double acc, double dec) {
+  if (distance <= 0) return 0;
+  const double ramps = vmax * vmax / (2 * acc) + vmax * vmax / (2 * dec);
+  if (distance >= ramps) return vmax / acc + vmax / dec + (distance - ramps) / vmax;
+  const double vp = std::sqrt(2 * acc * dec * distance / (acc + dec));
+  return vp / acc + vp / dec;
+}
+
+}  // namespace
+
+DriveState MapLinMotState(bool online, mc::StateVar sv, mc::StatusWord sw) {
+  if (!online) return DriveState::kOffline;
+  switch (static_cast<MainState>(sv.main_state)) {
+    case MainState::kNotReadyToSwitchOn:
+    case MainState::kSwitchOnDisabled:
+      return DriveState::kDisabled;
+    case MainState::kReadyToSwitchOn:
+    case MainState::kHwTests:
+    case MainState::kReadyToOperate:
+    case MainState::kBrakeReleaseDelay:
+    case MainState::kBrakeSetDelay:
+      return DriveState::kReady;
+    case MainState::kSetupError:
+    case MainState::kError:
+    case MainState::kErrorBehaviourQuickStop:
+      return DriveState::kFault;
+    case MainState::kOperationEnabled:
+      return sv.motion_active() ? DriveState::kMoving : DriveState::kEnabled;
+    case MainState::kHoming:
+    case MainState::kClearanceCheck:
+      return DriveState::kHoming;
+    case MainState::kAborting:
+    case MainState::kFreezing:
+      return sw.motion_active() ? DriveState::kMoving : DriveState::kReady;
+    case MainState::kGoingToInitialPosition:
+    case MainState::kGoingToPosition:
+    case MainState::kJoggingPlus:
+    case MainState::kJoggingMinus:
+    case MainState::kLinearizing:
+    case MainState::kPhaseSearching:
+    case MainState::kSpecialMode:
+      return DriveState::kMoving;
+  }
+  return DriveState::kDisabled;  // main state >= 22: not in the manual
+}
+
+Duration PlannedVaiDuration(double distance_mm, double v0_mm_s, double vmax_mm_s, double acc_mm_s2,
+                            double dec_mm_s2) {
+  if (vmax_mm_s <= 0 || acc_mm_s2 <= 0 || dec_mm_s2 <= 0) return Duration::zero();
+  const double v0 = std::fabs(v0_mm_s);
+  // Conservative: stop first (as if reversing, §6.1 step 2), then travel the rest from rest.
+  const double stop_s = v0 / dec_mm_s2;
+  const double stop_mm = v0 * v0 / (2 * dec_mm_s2);
+  return FromSeconds(
+      stop_s + TrapezoidSeconds(std::fabs(distance_mm) + stop_mm, vmax_mm_s, acc_mm_s2, dec_mm_s2));
+}
+
+LinMotUdpDrive::LinMotUdpDrive(DriveConfig config, const Clock& clock)
+    : DriveBase(std::move(config)), clock_(clock), name_(this->config().name) {}
+
+LinMotUdpDrive::~LinMotUdpDrive() { Deactivate(); }
+
+std::string LinMotUdpDrive::endpoint() const {
+  const LinUdpConfig& c = *config().linudp;
+  return absl::StrCat("udp://", c.host, ":", c.port);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Lifecycle.
+
+absl::Status LinMotUdpDrive::DoActivate() {
+  const LinUdpConfig& c = *config().linudp;
+  auto remote = transport::Endpoint::Parse(c.host, c.port);
+  if (!remote.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("linudp.host: ", remote.status().message()));
+  }
+  auto local = transport::Endpoint::Parse(c.bind_host, c.master_port);
+  if (!local.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("linudp.bind_host: ", local.status().message()));
+  }
+  auto session = SessionPool::Instance().Acquire(*local, clock_);
+  if (!session.ok()) return session.status();
+  {
+    std::lock_guard lock(mu_);
+    active_ = true;
+    link_ = LinkState::kUnknown;
+    sample_ = Sample{};
+    history_.clear();
+    velocity_mm_s_ = demand_velocity_mm_s_ = 0;
+    // linmot-linudp.md §6.8: no control word until an operation sets one, so that connecting
+    // never changes the drive's state.
+    control_word_.reset();
+    mc_block_.reset();
+    rtc_block_.reset();
+    motion_.reset();
+    homing_.reset();
+    published_.reset();
+  }
+  PeerOptions options;
+  options.name = name_;
+  options.remote = *remote;
+  options.cycle = c.cycle;
+  options.reply_timeout = c.reply_timeout;
+  options.lost_after_timeouts = c.lost_after_timeouts;
+  absl::StatusOr<PeerId> id = (*session)->Register(options, this);
+  std::lock_guard lock(mu_);
+  if (!id.ok()) {
+    active_ = false;
+    return id.status();
+  }
+  session_ = *session;
+  peer_id_ = *id;
+  PublishLocked(true);
+  return absl::OkStatus();
+}
+
+void LinMotUdpDrive::DoDeactivate() {
+  std::shared_ptr<Session> session;
+  PeerId id = 0;
+  {
+    std::lock_guard lock(mu_);
+    session = std::move(session_);
+    id = peer_id_;
+    active_ = false;
+  }
+  if (session) session->Unregister(id);  // no callback runs after this returns
+  {
+    std::lock_guard lock(mu_);
+    if (motion_) UpdateCommand(motion_->id, CommandState::kAborted, "drive deactivated");
+    if (homing_) UpdateCommand(homing_->id, CommandState::kAborted, "drive deactivated");
+    motion_.reset();
+    homing_.reset();
+    rtc_block_.reset();
+    link_ = LinkState::kUnknown;
+    PublishLocked(true);
+    cv_.notify_all();
+  }
+  session.reset();  // the last drive of a session closes its socket here, outside mu_
+}
+
+std::optional<ExchangeCounters> LinMotUdpDrive::exchange_counters() const {
+  std::shared_ptr<Session> session;
+  PeerId id = 0;
+  {
+    std::lock_guard lock(mu_);
+    session = session_;
+    id = peer_id_;
+  }
+  if (!session) return std::nullopt;
+  return session->peer_counters(id);
+}
+
+std::optional<SessionCounters> LinMotUdpDrive::session_counters() const {
+  std::shared_ptr<Session> session;
+  {
+    std::lock_guard lock(mu_);
+    session = session_;
+  }
+  if (!session) return std::nullopt;
+  return session->counters();
+}
+
+std::optional<transport::Endpoint> LinMotUdpDrive::local_endpoint() const {
+  std::lock_guard lock(mu_);
+  if (!session_) return std::nullopt;
+  return session_->local_endpoint();
+}
+
+// ---------------------------------------------------------------------------------------------
+// I/O thread side.
+
+Request LinMotUdpDrive::BuildRequest() noexcept {
+  std::lock_guard lock(mu_);
+  Request r;
+  // Standard status blocks plus the RTC reply, so that every reply shows the RTC count echo
+  // that seeds the next RTC command (A-08; docs/decisions/702-linudp-telegram-content.md).
+  r.response_definition = kRespStandard | kRespRtc;
+  r.control_word = control_word_;
+  r.motion_command = mc_block_;
+  r.rtc = rtc_block_;  // the identical block every telegram while a transaction is open
+  cw_in_flight_ = cw_generation_;
+  rtc_in_flight_ = rtc_generation_;
+  return r;
+}
+
+void LinMotUdpDrive::OnReply(const Reply& reply, TimePoint received) noexcept {
+  std::lock_guard lock(mu_);
+  if (!active_) return;
+  Sample& s = sample_;
+  s.valid = true;
+  s.received = received;
+  if (reply.status_word) s.status_word = mc::StatusWord{*reply.status_word};
+  if (reply.state_var) s.state_var = mc::StateVar::FromRaw(*reply.state_var);
+  if (reply.warn_word) s.warn_word = *reply.warn_word;
+  if (reply.error_code) s.error_code = *reply.error_code;
+  if (reply.actual_position) s.actual_position = *reply.actual_position;
+  if (reply.demand_position) s.demand_position = *reply.demand_position;
+  if (reply.rtc) s.rtc = *reply.rtc;
+  cw_answered_ = cw_in_flight_;
+  rtc_answered_ = rtc_in_flight_;
+  ++replies_;
+
+  // Velocity: difference quotient over the newest sample at least one window old (decision 703).
+  const Duration window = std::max(kMinVelocityWindow, 4 * Duration(config().linudp->cycle));
+  history_.push_back({received, s.actual_position, s.demand_position});
+  while (history_.size() >= 2 && received - history_[1].t >= window) history_.pop_front();
+  const PositionSample& ref = history_.front();
+  const double dt = ToSeconds(received - ref.t);
+  if (dt > 0) {
+    velocity_mm_s_ = units::PositionFromWire(int64_t{s.actual_position} - ref.actual) / dt;
+    demand_velocity_mm_s_ = units::PositionFromWire(int64_t{s.demand_position} - ref.demand) / dt;
+  } else if (history_.size() == 1) {
+    velocity_mm_s_ = demand_velocity_mm_s_ = 0;
+  }
+
+  EvaluateTrackersLocked(received);
+  PublishLocked(false);
+  cv_.notify_all();
+}
+
+void LinMotUdpDrive::OnTimeout() noexcept {
+  std::lock_guard lock(mu_);
+  if (!active_) return;
+  // Only deadlines advance without a reply; state-based decisions need a fresh sample.
+  const TimePoint now = clock_.Now();
+  if (motion_) {
+    const MotionTracker& m = *motion_;
+    if (!m.accepted && now >= m.accept_deadline) {
+      UpdateCommand(m.id, CommandState::kError,
+                    absl::StrCat("not accepted within ", config().timeouts.accept.count(),
+                                 " ms: no reply from the drive (linmot-mc.md D-11)"));
+      motion_.reset();
+    } else if (m.completion_deadline && now >= *m.completion_deadline) {
+      UpdateCommand(m.id, CommandState::kError,
+                    "completion time-out: no reply from the drive (linmot-mc.md D-11)");
+      motion_.reset();
+    }
+  }
+  if (homing_ && now >= homing_->deadline) {
+    UpdateCommand(homing_->id, CommandState::kError,
+                  absl::StrCat("not homed within ", config().timeouts.homing.count(),
+                               " ms: no reply from the drive"));
+    homing_.reset();
+  }
+  cv_.notify_all();
+}
+
+void LinMotUdpDrive::OnLinkChange(LinkState state) noexcept {
+  std::lock_guard lock(mu_);
+  if (!active_) return;
+  link_ = state;
+  if (state != LinkState::kOnline) {
+    history_.clear();
+    velocity_mm_s_ = demand_velocity_mm_s_ = 0;
+    PublishLocked(true);
+  }
+  cv_.notify_all();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Trackers (evaluated on every reply).
+
+void LinMotUdpDrive::EvaluateTrackersLocked(TimePoint now) {
+  EvaluateMotionLocked(now);
+  EvaluateHomingLocked(now);
+}
+
+void LinMotUdpDrive::EvaluateMotionLocked(TimePoint now) {
+  if (!motion_) return;
+  MotionTracker& m = *motion_;
+  const mc::StateVar sv = sample_.state_var;
+  const uint8_t ms = sv.main_state;
+  auto end = [&](CommandState st, const std::string& message) {
+    UpdateCommand(m.id, st, message);
+    motion_.reset();
+  };
+  if (!m.accepted) {
+    // linmot-mc.md §4.4 step 3: accepted <=> state 8 and the echo equals the count sent.
+    if (sv.operation_enabled() && sv.count_echo() == m.count) {
+      m.accepted = true;
+      accepted_id_ = m.id;
+      UpdateCommand(m.id, CommandState::kActive);
+      if (m.planned) {
+        // D-11: planned duration x 1.5 + 500 ms.
+        m.completion_deadline = now + *m.planned + *m.planned / 2 + std::chrono::milliseconds(500);
+      }
+    } else if (IsFaultState(ms)) {
+      return end(CommandState::kError,
+                 absl::StrCat("drive fault before acceptance: ", FaultLocked().text));
+    } else if (!sv.operation_enabled()) {
+      return end(CommandState::kAborted,
+                 absl::StrCat("drive left Operation Enabled before accepting, now in ",
+                              StateTextLocked()));
+    } else if (now >= m.accept_deadline) {
+      return end(
+          CommandState::kError,
+          absl::StrCat("not accepted within ", config().timeouts.accept.count(), " ms (count ",
+                       m.count, ", echo ", sv.count_echo(), ", linmot-mc.md D-11)"));
+    } else {
+      return;
+    }
+  }
+  // linmot-mc.md §4.4 steps 4 and 5.
+  if (sv.operation_enabled()) {
+    if (sv.count_echo() != m.count) {
+      return end(CommandState::kAborted, absl::StrCat("superseded on the drive (count echo ",
+                                                      sv.count_echo(), ", sent ", m.count, ")"));
+    }
+    if (!sv.motion_active() && (!m.needs_in_target || sv.in_target_position())) {
+      return end(CommandState::kDone, "");
+    }
+    if (m.completion_deadline && now >= *m.completion_deadline) {
+      return end(
+          CommandState::kError,
+          absl::StrFormat("completion time-out after %.0f ms (planned %.0f ms, "
+                          "linmot-mc.md D-11)",
+                          ToSeconds(*m.planned * 3 / 2 + std::chrono::milliseconds(500)) * 1000,
+                          ToSeconds(*m.planned) * 1000));
+    }
+    return;
+  }
+  if (IsFaultState(ms))
+    return end(CommandState::kError, absl::StrCat("drive fault: ", FaultLocked().text));
+  end(CommandState::kAborted,
+      absl::StrCat("interrupted: drive left Operation Enabled, now in ", StateTextLocked()));
+}
+
+void LinMotUdpDrive::EvaluateHomingLocked(TimePoint now) {
+  if (!homing_) return;
+  HomingTracker& h = *homing_;
+  const uint8_t ms = MainStateLocked();
+  const uint8_t homing = kState(MainState::kHoming);
+  auto end = [&](CommandState st, const std::string& message) {
+    UpdateCommand(h.id, st, message);
+    homing_.reset();
+    // Release bit 11 whatever happened (linmot-mc.md §2.7 step 3, D-06).
+    if (control_word_ && (*control_word_ & mc::kHome)) {
+      SetControlWordLocked(*control_word_ & ~mc::kHome);
+    }
+  };
+  if (IsFaultState(ms))
+    return end(CommandState::kError, absl::StrCat("drive fault: ", FaultLocked().text));
+  if (h.phase == HomingPhase::kStarting) {
+    if (ms == homing) {
+      h.phase = HomingPhase::kRunning;
+      UpdateCommand(h.id, CommandState::kActive);
+    } else if (ms != kState(MainState::kOperationEnabled)) {
+      return end(CommandState::kAborted,
+                 absl::StrCat("interrupted before homing started, drive in ", StateTextLocked()));
+    }
+  }
+  if (h.phase == HomingPhase::kRunning) {
+    if (ms == homing && sample_.state_var.sub_state == mc::kSubStateFinished) {
+      // Sub state 0Fh = Homing Finished: release bit 11, the drive returns to 8 (D-06).
+      SetControlWordLocked(*control_word_ & ~mc::kHome);
+      h.phase = HomingPhase::kReleasing;
+    } else if (ms != homing) {
+      return end(CommandState::kAborted,
+                 absl::StrCat("homing stopped before it finished, drive in ", StateTextLocked()));
+    }
+  }
+  if (h.phase == HomingPhase::kReleasing) {
+    if (ms == kState(MainState::kOperationEnabled)) {
+      if (sample_.status_word.homed()) return end(CommandState::kDone, "");
+      return end(CommandState::kError, "homing finished but the drive reports Homed = 0");
+    }
+    if (ms != homing) {
+      return end(CommandState::kAborted,
+                 absl::StrCat("interrupted after homing, drive in ", StateTextLocked()));
+    }
+  }
+  if (now >= h.deadline) {
+    end(CommandState::kError, absl::StrCat("not homed within ", config().timeouts.homing.count(),
+                                           " ms, drive in ", StateTextLocked()));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Status.
+
+std::string LinMotUdpDrive::StateTextLocked() const {
+  const uint8_t ms = MainStateLocked();
+  return absl::StrCat("main state ", ms, " (", mc::MainStateName(ms), ")");
+}
+
+Fault LinMotUdpDrive::FaultLocked() const {
+  Fault f;
+  const uint8_t ms = MainStateLocked();
+  if (!sample_.valid || (!IsFaultState(ms) && !sample_.status_word.error())) return f;
+  uint16_t code = sample_.error_code;
+  // linmot-mc.md §2.6: in states 3/4 the sub state carries the code's low byte.
+  if (code == 0 && ms != kState(MainState::kErrorBehaviourQuickStop))
+    code = sample_.state_var.sub_state;
+  f.code = code;
+  f.text = mc::ErrorText(code);
+  f.fatal = sample_.status_word.fatal_error();
+  return f;
+}
+
+DriveStatus LinMotUdpDrive::BuildStatusLocked() const {
+  DriveStatus s;
+  s.state = MapLinMotState(OnlineLocked(), sample_.state_var, sample_.status_word);
+  if (!sample_.valid) return s;
+  const uint8_t ms = MainStateLocked();
+  s.native.main_state = ms;
+  s.native.sub_state = sample_.state_var.sub_state;
+  s.native.text = mc::MainStateName(ms);
+  s.native.status_word = sample_.status_word.raw;
+  s.native.warn_word = sample_.warn_word;
+  s.position_mm = units::PositionFromWire(sample_.actual_position);
+  s.demand_position_mm = units::PositionFromWire(sample_.demand_position);
+  s.velocity_mm_s = velocity_mm_s_;
+  s.homed = sample_.status_word.homed();
+  s.in_target = sample_.status_word.in_target_position();
+  s.motion_active = sample_.status_word.motion_active();
+  s.warnings = mc::WarnWord{sample_.warn_word}.SetBitNames();
+  s.fault = FaultLocked();
+  return s;
+}
+
+void LinMotUdpDrive::PublishLocked(bool force) {
+  DriveStatus s = BuildStatusLocked();
+  const TimePoint now = clock_.Now();
+  if (!force && published_ && SameStatus(*published_, s) && now - published_at_ < kHeartbeat) {
+    return;
+  }
+  if (!published_ || published_->state != s.state) {
+    log::Info("drive_state", log::Fields()
+                                 .Add("drive", name_)
+                                 .Add("family", "linmot")
+                                 .Add("from", published_ ? ToString(published_->state) : "-")
+                                 .Add("to", ToString(s.state))
+                                 .Add("main_state", s.native.main_state));
+  }
+  published_ = s;
+  published_at_ = now;
+  PublishStatus(std::move(s));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Waiting.
+
+void LinMotUdpDrive::SetControlWordLocked(uint16_t cw) {
+  if (control_word_ == cw) return;
+  control_word_ = cw;
+  ++cw_generation_;
+  log::Debug("control_word", log::Fields().Add("drive", name_).Add("cw", Hex16(cw)));
+}
+
+template <typename Pred>
+LinMotUdpDrive::Wait LinMotUdpDrive::WaitLocked(std::unique_lock<std::mutex>& lock,
+                                                TimePoint deadline, Pred reached) {
+  for (;;) {
+    if (!active_) return Wait::kInactive;
+    if (reached()) return Wait::kReached;
+    if (link_ == LinkState::kOffline) return Wait::kOffline;
+    const TimePoint now = clock_.Now();
+    if (now >= deadline) return Wait::kDeadline;
+    cv_.wait_for(lock, deadline - now);
+  }
+}
+
+LinMotUdpDrive::Wait LinMotUdpDrive::WaitControlWordLocked(std::unique_lock<std::mutex>& lock,
+                                                           TimePoint deadline) {
+  const uint64_t gen = cw_generation_;
+  return WaitLocked(lock, deadline, [&] { return cw_answered_ >= gen; });
+}
+
+absl::Status LinMotUdpDrive::WaitOnlineLocked(std::unique_lock<std::mutex>& lock,
+                                              TimePoint deadline, const char* operation) {
+  for (;;) {
+    if (!active_) return WaitFailure(Wait::kInactive, operation, "");
+    if (OnlineLocked()) return absl::OkStatus();
+    const TimePoint now = clock_.Now();
+    if (now >= deadline) {
+      return absl::UnavailableError(absl::StrCat("drive '", name_, "': ", operation,
+                                                 ": no reply from ", endpoint(), " (link ",
+                                                 ToString(link_), ")"));
+    }
+    cv_.wait_for(lock, deadline - now);
+  }
+}
+
+absl::Status LinMotUdpDrive::WaitFailure(Wait w, const char* operation,
+                                         const std::string& detail) const {
+  const std::string where = absl::StrCat("drive '", name_, "': ", operation, ": ");
+  switch (w) {
+    case Wait::kReached:
+      return absl::OkStatus();
+    case Wait::kDeadline:
+      return absl::DeadlineExceededError(absl::StrCat(where, detail));
+    case Wait::kOffline:
+      return absl::UnavailableError(
+          absl::StrCat(where, "link to ", endpoint(), " lost (", detail, ")"));
+    case Wait::kInactive:
+      return absl::FailedPreconditionError(absl::StrCat(where, "drive deactivated"));
+  }
+  return absl::InternalError(where);
+}
+
+absl::StatusOr<CommandInfo> LinMotUdpDrive::Finish(uint64_t id, const absl::Status& status) {
+  if (status.ok()) {
+    UpdateCommand(id, CommandState::kDone);
+  } else {
+    UpdateCommand(id, CommandState::kError, std::string(status.message()));
+    return status;
+  }
+  std::optional<CommandInfo> info = GetCommand(id);
+  if (!info) return absl::InternalError(absl::StrCat("drive '", name_, "': command ", id, " lost"));
+  return *info;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Control word sequences (linmot-mc.md §2.7).
+
+absl::StatusOr<CommandInfo> LinMotUdpDrive::Enable() {
+  DGW_RETURN_IF_ERROR(RequireActive("Enable"));
+  std::lock_guard op(op_mu_);
+  const CommandInfo cmd = StartCommand("Enable", false);
+  absl::Status result = [&]() -> absl::Status {
+    std::unique_lock lock(mu_);
+    const auto timeout = config().timeouts.request;
+    const TimePoint deadline = clock_.Now() + timeout;
+    DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, "Enable"));
+    for (;;) {
+      const uint8_t ms = MainStateLocked();
+      if (ms == kState(MainState::kOperationEnabled)) {
+        SetControlWordLocked(mc::kOperational);  // take over the word the drive runs with
+        return absl::OkStatus();
+      }
+      if (IsFaultState(ms)) {
+        return absl::FailedPreconditionError(
+            absl::StrCat("drive '", name_, "': Enable: drive reports a fault in ",
+                         StateTextLocked(), ": ", FaultLocked().text, "; AcknowledgeFault first"));
+      }
+      // §2.7 steps 1-2: release the anti-restart lock (0 -> 1), then 1 -> 2, then switch on.
+      uint16_t cw = mc::kOperational;
+      if (ms == kState(MainState::kNotReadyToSwitchOn)) cw = mc::kAllOff;
+      if (ms == kState(MainState::kSwitchOnDisabled)) cw = mc::kSwitchedOff;
+      SetControlWordLocked(cw);
+      const Wait w = WaitLocked(lock, deadline, [&] {
+        return cw_answered_ >= cw_generation_ && MainStateLocked() != ms;
+      });
+      if (w != Wait::kReached) {
+        return WaitFailure(w, "Enable",
+                           absl::StrCat("stuck in ", StateTextLocked(), " with control word ",
+                                        Hex16(cw), " after ", timeout.count(), " ms"));
+      }
+    }
+  }();
+  return Finish(cmd.id, result);
+}
+
+absl::StatusOr<CommandInfo> LinMotUdpDrive::Disable() {
+  DGW_RETURN_IF_ERROR(RequireActive("Disable"));
+  std::lock_guard op(op_mu_);
+  const CommandInfo cmd = StartCommand("Disable", false);
+  absl::Status result = [&]() -> absl::Status {
+    std::unique_lock lock(mu_);
+    const auto timeout = config().timeouts.request;
+    const TimePoint deadline = clock_.Now() + timeout;
+    DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, "Disable"));
+    // §2.7 step 7: clear Switch On (OFF1) -> (21) -> 2.
+    SetControlWordLocked(mc::kSwitchedOff);
+    const Wait w = WaitLocked(lock, deadline, [&] {
+      return cw_answered_ >= cw_generation_ && IsPowerOff(MainStateLocked());
+    });
+    if (w != Wait::kReached) {
+      return WaitFailure(w, "Disable",
+                         absl::StrCat("stuck in ", StateTextLocked(),
+                                      " with control word 0x003E after ", timeout.count(), " ms"));
+    }
+    return absl::OkStatus();
+  }();
+  return Finish(cmd.id, result);
+}
+
+absl::StatusOr<CommandInfo> LinMotUdpDrive::AcknowledgeFault() {
+  DGW_RETURN_IF_ERROR(RequireActive("AcknowledgeFault"));
+  std::lock_guard op(op_mu_);
+  const CommandInfo cmd = StartCommand("AcknowledgeFault", false);
+  absl::Status result = [&]() -> absl::Status {
+    std::unique_lock lock(mu_);
+    const auto timeout = config().timeouts.request;
+    const TimePoint deadline = clock_.Now() + timeout;
+    DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, "AcknowledgeFault"));
+    bool acknowledged = false;
+    for (;;) {
+      const uint8_t ms = MainStateLocked();
+      uint16_t cw = 0;
+      if (ms == kState(MainState::kErrorBehaviourQuickStop)) {
+        // The quick stop ends in state 4 by itself (linmot-mc.md T26).
+        const Wait w = WaitLocked(lock, deadline, [&] { return MainStateLocked() != ms; });
+        if (w != Wait::kReached) {
+          return WaitFailure(w, "AcknowledgeFault", absl::StrCat("still in ", StateTextLocked()));
+        }
+        continue;
+      } else if (ms == kState(MainState::kSetupError)) {
+        cw = mc::kOperational;  // D-03: Switch On takes 3 -> 4, where the code is logged
+      } else if (ms == kState(MainState::kError)) {
+        const Fault fault = FaultLocked();
+        if (fault.fatal) {
+          absl::Status s = absl::FailedPreconditionError(absl::StrCat(
+              "drive '", name_, "': AcknowledgeFault: fatal error ", fault.text,
+              " cannot be acknowledged (status word bit 12); fix the cause, then reset or "
+              "power-cycle the drive"));
+          mc::AttachErrorCode(s, static_cast<uint16_t>(fault.code));
+          return s;
+        }
+        // §2.4: bit 7 acts on a rising edge, so the drive must see it 0 first.
+        SetControlWordLocked(control_word_.value_or(mc::kOperational) & ~mc::kErrorAcknowledge);
+        Wait w = WaitControlWordLocked(lock, deadline);
+        if (w == Wait::kReached) {
+          SetControlWordLocked(mc::kAcknowledge);
+          w = WaitLocked(lock, deadline,
+                         [&] { return cw_answered_ >= cw_generation_ && MainStateLocked() != ms; });
+        }
+        if (w != Wait::kReached) {
+          absl::Status s =
+              WaitFailure(w, "AcknowledgeFault",
+                          absl::StrCat("fault ", fault.text, " still pending in ",
+                                       StateTextLocked(), " after ", timeout.count(), " ms"));
+          mc::AttachErrorCode(s, static_cast<uint16_t>(fault.code));
+          SetControlWordLocked(mc::kOperational);
+          return s;
+        }
+        acknowledged = true;
+        continue;
+      } else if (!acknowledged) {
+        return absl::OkStatus();  // nothing pending
+      } else if (ms == kState(MainState::kNotReadyToSwitchOn)) {
+        cw = mc::kAllOff;  // D-04: the acknowledge lands in 0 (Switch On Locked): release it
+      } else if (ms == kState(MainState::kSwitchOnDisabled)) {
+        cw = mc::kSwitchedOff;
+      } else {
+        SetControlWordLocked(mc::kSwitchedOff);  // bit 7 low again, power stays off
+        return absl::OkStatus();
+      }
+      SetControlWordLocked(cw);
+      const Wait w = WaitLocked(lock, deadline, [&] {
+        return cw_answered_ >= cw_generation_ && MainStateLocked() != ms;
+      });
+      if (w != Wait::kReached) {
+        return WaitFailure(w, "AcknowledgeFault",
+                           absl::StrCat("stuck in ", StateTextLocked(), " with control word ",
+                                        Hex16(cw), " after ", timeout.count(), " ms"));
+      }
+    }
+  }();
+  return Finish(cmd.id, result);
+}
+
+absl::StatusOr<CommandInfo> LinMotUdpDrive::Home() {
+  DGW_RETURN_IF_ERROR(RequireActive("Home"));
+  std::lock_guard op(op_mu_);
+  std::unique_lock lock(mu_);
+  const TimePoint now = clock_.Now();
+  const TimePoint deadline = now + config().timeouts.request;
+  if (!OnlineLocked()) DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, "Home"));
+  if (MainStateLocked() != kState(MainState::kOperationEnabled)) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "drive '", name_, "': Home needs main state 8 (Operation Enabled), drive is in ",
+        StateTextLocked()));
+  }
+  const CommandInfo cmd = StartCommand("Home", true);
+  motion_.reset();  // superseded (StartCommand aborted its handle)
+  homing_ = HomingTracker{cmd.id, HomingPhase::kStarting, now + config().timeouts.homing};
+  // §2.7 step 3: bit 11 held until sub state 0Fh (EvaluateHomingLocked releases it).
+  SetControlWordLocked(control_word_.value_or(mc::kOperational) | mc::kHome);
+  const Wait w = WaitLocked(lock, deadline, [&] {
+    return !homing_ || homing_->id != cmd.id || homing_->phase != HomingPhase::kStarting;
+  });
+  if (w != Wait::kReached) {
+    if (homing_ && homing_->id == cmd.id) homing_.reset();
+    if (control_word_) SetControlWordLocked(*control_word_ & ~mc::kHome);
+    absl::Status s = WaitFailure(
+        w, "Home",
+        absl::StrCat("drive did not enter main state 9 (Homing) within ",
+                     config().timeouts.request.count(), " ms, is in ", StateTextLocked()));
+    UpdateCommand(cmd.id, CommandState::kError, std::string(s.message()));
+    return s;
+  }
+  std::optional<CommandInfo> info = GetCommand(cmd.id);
+  if (!info) return absl::InternalError("Home: command lost");
+  if (info->state == CommandState::kError || info->state == CommandState::kAborted) {
+    return absl::AbortedError(absl::StrCat("drive '", name_, "': Home: ", info->message));
+  }
+  return *info;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Motion commands (linmot-mc.md §4.4).
+
+absl::StatusOr<mc::McCommand> LinMotUdpDrive::BuildMotion(const MotionCommand& cmd,
+                                                          bool& needs_in_target,
+                                                          Duration& planned) {
+  const AxisConfig& axis = config().axis;
+  const double demand_mm = units::PositionFromWire(sample_.demand_position);
+  const double v0 = demand_velocity_mm_s_;
+  struct Profile {
+    uint32_t v, a, d;
+    double v_mm_s, a_mm_s2, d_mm_s2;
+  };
+  // Deceleration 0 means "= acceleration" (command.h contract); zero limits never go out (D-42).
+  auto profile = [&](const std::string& kind, double v, double a,
+                     double d) -> absl::StatusOr<Profile> {
+    if (d == 0) d = a;
+    DGW_RETURN_IF_ERROR(
+        CheckLimit(kind + ".velocity_mm_s", v, axis.max_velocity_mm_s, "axis.max_velocity_mm_s"));
+    DGW_RETURN_IF_ERROR(CheckLimit(kind + ".acceleration_mm_s2", a, axis.max_acceleration_mm_s2,
+                                   "axis.max_acceleration_mm_s2"));
+    DGW_RETURN_IF_ERROR(CheckLimit(kind + ".deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
+                                   "axis.max_acceleration_mm_s2"));
+    Profile p{0, 0, 0, v, a, d};
+    DGW_ASSIGN_OR_RETURN(p.v, units::VelocityToWire(kind + ".velocity_mm_s", v));
+    DGW_ASSIGN_OR_RETURN(p.a, units::AccelerationToWire(kind + ".acceleration_mm_s2", a));
+    DGW_ASSIGN_OR_RETURN(p.d, units::AccelerationToWire(kind + ".deceleration_mm_s2", d));
+    return p;
+  };
+
+  if (const auto* m = std::get_if<MoveAbsolute>(&cmd)) {
+    DGW_RETURN_IF_ERROR(
+        CheckPosition("move_absolute.position_mm", m->position_mm, m->position_mm, axis));
+    DGW_ASSIGN_OR_RETURN(const Profile p, profile("move_absolute", m->velocity_mm_s,
+                                                  m->acceleration_mm_s2, m->deceleration_mm_s2));
+    DGW_ASSIGN_OR_RETURN(const int32_t target,
+                         units::PositionToWire("move_absolute.position_mm", m->position_mm));
+    needs_in_target = true;
+    planned = PlannedVaiDuration(m->position_mm - demand_mm, v0, p.v_mm_s, p.a_mm_s2, p.d_mm_s2);
+    return mc::VaiGoToPos(target, p.v, p.a, p.d);
+  }
+  if (const auto* m = std::get_if<MoveRelative>(&cmd)) {
+    // Decision 704: 011x Increment Dem Pos, the target is the demand position now + distance.
+    DGW_RETURN_IF_ERROR(CheckPosition("move_relative.distance_mm", m->distance_mm,
+                                      demand_mm + m->distance_mm, axis));
+    DGW_ASSIGN_OR_RETURN(const Profile p, profile("move_relative", m->velocity_mm_s,
+                                                  m->acceleration_mm_s2, m->deceleration_mm_s2));
+    DGW_ASSIGN_OR_RETURN(const int32_t increment,
+                         units::PositionToWire("move_relative.distance_mm", m->distance_mm));
+    needs_in_target = true;
+    planned = PlannedVaiDuration(m->distance_mm, v0, p.v_mm_s, p.a_mm_s2, p.d_mm_s2);
+    return mc::VaiIncrementDemPos(increment, p.v, p.a, p.d);
+  }
+  if (const auto* m = std::get_if<MoveVelocity>(&cmd)) {
+    // docs/decisions/005-move-velocity.md: VAI Go To Pos towards the stroke end in the
+    // velocity's direction, at that speed.
+    if (!std::isfinite(m->velocity_mm_s) || m->velocity_mm_s == 0) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "move_velocity.velocity_mm_s: ", m->velocity_mm_s,
+          " must be non-zero (its sign picks the direction; use Stop to stand still)"));
+    }
+    DGW_ASSIGN_OR_RETURN(const Profile p, profile("move_velocity", std::fabs(m->velocity_mm_s),
+                                                  m->acceleration_mm_s2, m->deceleration_mm_s2));
+    const double end_mm = m->velocity_mm_s > 0 ? axis.max_mm : axis.min_mm;
+    DGW_ASSIGN_OR_RETURN(const int32_t target, units::PositionToWire("axis.max_mm/min_mm", end_mm));
+    needs_in_target = true;
+    planned = PlannedVaiDuration(end_mm - demand_mm, v0, p.v_mm_s, p.a_mm_s2, p.d_mm_s2);
+    return mc::VaiGoToPos(target, p.v, p.a, p.d);
+  }
+  const auto& stop = std::get<StopMotion>(cmd);
+  // Stop has no acceleration to fall back on: 0 means the axis' maximal acceleration.
+  const double d =
+      stop.deceleration_mm_s2 == 0 ? axis.max_acceleration_mm_s2 : stop.deceleration_mm_s2;
+  DGW_RETURN_IF_ERROR(CheckLimit("stop.deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
+                                 "axis.max_acceleration_mm_s2"));
+  DGW_ASSIGN_OR_RETURN(const uint32_t dec, units::AccelerationToWire("stop.deceleration_mm_s2", d));
+  needs_in_target = false;  // a stop ends where it ends: Motion Active = 0 is enough (§4.4)
+  planned = FromSeconds(std::fabs(v0) / d);
+  return mc::VaiStop(dec);
+}
+
+absl::StatusOr<CommandInfo> LinMotUdpDrive::Move(const MotionCommand& cmd) {
+  DGW_RETURN_IF_ERROR(RequireActive("Move"));
+  std::lock_guard op(op_mu_);
+  std::unique_lock lock(mu_);
+  if (!OnlineLocked()) {
+    return absl::UnavailableError(absl::StrCat("drive '", name_, "': ", KindName(cmd),
+                                               ": no reply from ", endpoint(), " (link ",
+                                               ToString(link_), ")"));
+  }
+  bool needs_in_target = true;
+  Duration planned{};
+  absl::StatusOr<mc::McCommand> mcc = BuildMotion(cmd, needs_in_target, planned);
+  if (!mcc.ok()) {
+    return absl::Status(mcc.status().code(),
+                        absl::StrCat("drive '", name_, "': ", mcc.status().message()));
+  }
+  lock.unlock();
+  return RunMotion(KindName(cmd), *mcc, needs_in_target, planned);
+}
+
+absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
+                                                      const mc::McCommand& cmd,
+                                                      bool needs_in_target,
+                                                      std::optional<Duration> planned) {
+  std::unique_lock lock(mu_);
+  if (!OnlineLocked()) {
+    return absl::UnavailableError(absl::StrCat("drive '", name_, "': ", kind, ": no reply from ",
+                                               endpoint(), " (link ", ToString(link_), ")"));
+  }
+  // D-36: outside state 8 the drive would raise 0086h (or ignore the command): refuse here.
+  if (MainStateLocked() != kState(MainState::kOperationEnabled)) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("drive '", name_, "': ", kind,
+                     " needs main state 8 (Operation Enabled), drive is in ", StateTextLocked()));
+  }
+  // D-09 / A-08: next count of the 1..15 ring, seeded from the echo.
+  const uint8_t count = mc::NextCount(sample_.state_var.count_echo());
+  absl::StatusOr<mc::McBlock> block = mc::EncodeMotionCommand(cmd, count);
+  if (!block.ok()) {
+    return absl::Status(block.status().code(), absl::StrCat("drive '", name_, "': ", kind, ": ",
+                                                            block.status().message()));
+  }
+  const CommandInfo info = StartCommand(kind, true);  // aborts the running motion's handle
+  homing_.reset();
+  mc_block_ = *block;
+  const TimePoint now = clock_.Now();
+  MotionTracker m;
+  m.id = info.id;
+  m.kind = kind;
+  m.count = count;
+  m.needs_in_target = needs_in_target;
+  m.accept_deadline = now + config().timeouts.accept;
+  m.planned = planned;
+  motion_ = m;
+  log::Debug("motion_command",
+             log::Fields()
+                 .Add("drive", name_)
+                 .Add("id", info.id)
+                 .Add("kind", kind)
+                 .Add("header", Hex16(mc::Header{cmd.master_id, cmd.sub_id, count}.raw())));
+  const Wait w = WaitLocked(lock, m.accept_deadline, [&] {
+    return !motion_ || motion_->id != info.id || motion_->accepted;
+  });
+  if (w != Wait::kReached) {
+    absl::Status s = WaitFailure(
+        w, kind.c_str(),
+        absl::StrCat("not accepted within ", config().timeouts.accept.count(), " ms (count ", count,
+                     ", echo ", sample_.state_var.count_echo(), ", linmot-mc.md D-11)"));
+    if (motion_ && motion_->id == info.id) motion_.reset();
+    UpdateCommand(info.id, CommandState::kError, std::string(s.message()));
+    return s;
+  }
+  std::optional<CommandInfo> result = GetCommand(info.id);
+  if (!result) return absl::InternalError(absl::StrCat(kind, ": command lost"));
+  if (accepted_id_ != info.id) {
+    // Ended before the drive accepted it: refused (fault) or interrupted.
+    const Fault fault = FaultLocked();
+    absl::Status s = result->state == CommandState::kError
+                         ? absl::FailedPreconditionError(
+                               absl::StrCat("drive '", name_, "': ", kind, ": ", result->message))
+                         : absl::AbortedError(
+                               absl::StrCat("drive '", name_, "': ", kind, ": ", result->message));
+    if (fault.code != 0) mc::AttachErrorCode(s, static_cast<uint16_t>(fault.code));
+    return s;
+  }
+  return *result;
+}
+
+// ---------------------------------------------------------------------------------------------
+// RTC (linmot-linudp.md §5, A-08, A-09, A-14).
+
+absl::StatusOr<RtcReply> LinMotUdpDrive::RtcTransact(uint8_t command_id, uint16_t word2,
+                                                     uint16_t word3, uint16_t word4,
+                                                     Duration timeout, const std::string& what) {
+  std::lock_guard rtc(rtc_mu_);
+  std::unique_lock lock(mu_);
+  const TimePoint deadline = clock_.Now() + timeout;
+  DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, what.c_str()));
+  // the count follows the echo of the newest reply (1..15 ring, never 0).
+  const uint8_t echo = sample_.rtc ? (sample_.rtc->count & 0x0F) : 0;
+  const uint8_t count = mc::NextCount(echo);
+  rtc_block_ = RtcRequest{count, command_id, word2, word3, word4};
+  const uint64_t gen = ++rtc_generation_;
+  // done when the echo equals the count and the status is no longer busy.
+  const Wait w = WaitLocked(lock, deadline, [&] {
+    return rtc_answered_ >= gen && sample_.rtc && (sample_.rtc->count & 0x0F) == count &&
+           !IsRtcBusy(sample_.rtc->status);
+  });
+  rtc_block_.reset();
+  if (w != Wait::kReached) {
+    const RtcReply last = sample_.rtc.value_or(RtcReply{});
+    return WaitFailure(
+        w, what.c_str(),
+        absl::StrFormat("no RTC answer within %d ms (count %d, echo %d, status "
+                        "0x%02X, linmot-linudp.md A-09)",
+                        std::chrono::duration_cast<std::chrono::milliseconds>(timeout).count(),
+                        count, last.count & 0x0F, last.status));
+  }
+  log::Debug("rtc", log::Fields()
+                        .Add("drive", name_)
+                        .Add("command", absl::StrFormat("0x%02X", command_id))
+                        .Add("count", static_cast<int>(count))
+                        .Add("status", absl::StrFormat("0x%02X", sample_.rtc->status)));
+  return *sample_.rtc;
+}
+
+namespace {
+
+absl::Status RtcError(const std::string& drive, const std::string& what, uint8_t status) {
+  // the raw code goes upward. Codes that reject the request itself -> InvalidArgument;
+  // codes about the drive's state or the parameter's use -> FailedPrecondition.
+  const std::string message = absl::StrFormat("drive '%s': %s: %s (RTC status 0x%02X)", drive, what,
+                                              RtcStatusText(status), status);
+  absl::Status s;
+  switch (status) {
+    case kRtcStatusUpidError:
+    case kRtcStatusParameterTypeError:
+    case kRtcStatusRangeError:
+    case kRtcStatusOddAddress:
+    case kRtcStatusSizeError:
+      s = absl::InvalidArgumentError(message);
+      break;
+    default:
+      s = absl::FailedPreconditionError(message);
+  }
+  s.SetPayload(kRtcStatusPayloadUrl, absl::Cord(absl::StrFormat("%02X", status)));
+  return s;
+}
+
+}  // namespace
+
+absl::StatusOr<int64_t> LinMotUdpDrive::ReadParameter(const ParameterRef& ref) {
+  DGW_RETURN_IF_ERROR(RequireActive("ReadParameter"));
+  if (ref.id > 0xFFFF) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "drive '%s': parameter.id: 0x%X exceeds the UPID range 0x0000-0xFFFF", name_, ref.id));
+  }
+  const std::string what =
+      absl::StrFormat("read %s value of UPID 0x%04X", ref.rom ? "ROM" : "RAM", ref.id);
+  const RtcCommand command =
+      ref.rom ? RtcCommand::kReadRomValueByUpid : RtcCommand::kReadRamValueByUpid;
+  DGW_ASSIGN_OR_RETURN(const RtcReply r,
+                       RtcTransact(static_cast<uint8_t>(command), static_cast<uint16_t>(ref.id), 0,
+                                   0, config().timeouts.request, what));
+  if (IsRtcError(r.status)) return RtcError(name_, what, r.status);
+  // linmot-linudp.md §3.5: words 3-4 are one little-endian Int32.
+  const uint32_t raw = static_cast<uint32_t>(r.word3) | (static_cast<uint32_t>(r.word4) << 16);
+  return static_cast<int64_t>(static_cast<int32_t>(raw));
+}
+
+absl::Status LinMotUdpDrive::WriteParameter(const ParameterRef& ref, int64_t value) {
+  DGW_RETURN_IF_ERROR(RequireActive("WriteParameter"));
+  if (ref.id > 0xFFFF) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "drive '%s': parameter.id: 0x%X exceeds the UPID range 0x0000-0xFFFF", name_, ref.id));
+  }
+  // 32 bits travel; UInt32 parameters above 7FFF'FFFFh may be given unsigned (decision 705).
+  if (value < std::numeric_limits<int32_t>::min() ||
+      value > static_cast<int64_t>(std::numeric_limits<uint32_t>::max())) {
+    return absl::OutOfRangeError(absl::StrFormat(
+        "drive '%s': parameter 0x%04X value: %d does not fit 32 bits [-2147483648, 4294967295]",
+        name_, ref.id, value));
+  }
+  const uint32_t raw = static_cast<uint32_t>(value);
+  const std::string what =
+      absl::StrFormat("write %s value of UPID 0x%04X", ref.rom ? "ROM" : "RAM", ref.id);
+  const RtcCommand command =
+      ref.rom ? RtcCommand::kWriteRomValueByUpid : RtcCommand::kWriteRamValueByUpid;
+  DGW_ASSIGN_OR_RETURN(
+      const RtcReply r,
+      RtcTransact(static_cast<uint8_t>(command), static_cast<uint16_t>(ref.id),
+                  static_cast<uint16_t>(raw & 0xFFFF), static_cast<uint16_t>(raw >> 16),
+                  config().timeouts.request, what));
+  if (IsRtcError(r.status)) return RtcError(name_, what, r.status);
+  return absl::OkStatus();
+}
+
+absl::StatusOr<NativeReply> LinMotUdpDrive::SendNative(const NativeRequest& req) {
+  DGW_RETURN_IF_ERROR(RequireActive("SendNative"));
+  if (const auto* rtc = std::get_if<LinMotRtcRequest>(&req)) {
+    if (rtc->command_id == static_cast<uint8_t>(RtcCommand::kRestartDrive)) {
+      // A-11 needs count 0 and a silent phase without link supervision: not offered here.
+      return absl::UnimplementedError(
+          absl::StrCat("drive '", name_,
+                       "': send_native.rtc.command_id: 0x30 (Restart Drive) is not "
+                       "supported through SendNative (linmot-linudp.md A-11)"));
+    }
+    const std::string what = absl::StrFormat("RTC command 0x%02X", rtc->command_id);
+    DGW_ASSIGN_OR_RETURN(const RtcReply r,
+                         RtcTransact(rtc->command_id, rtc->word2, rtc->word3, rtc->word4,
+                                     RtcTimeout(rtc->command_id, config().timeouts.request), what));
+    NativeReply out;
+    out.status = r.status;
+    out.word2 = r.word2;
+    out.word3 = r.word3;
+    out.word4 = r.word4;
+    return out;
+  }
+  const auto& m = std::get<LinMotMcRequest>(req);
+  const std::string where = absl::StrCat("drive '", name_, "': send_native.mc");
+  if (m.sub_id > 0x0F) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ".sub_id: ", m.sub_id, " exceeds 15"));
+  }
+  if (m.parameters.size() > mc::kMcBlockSize - 2) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ".parameters: ", m.parameters.size(),
+                                                   " bytes exceed 30 (linmot-mc.md D-02)"));
+  }
+  const mc::CommandSpec* spec = mc::FindCommand(m.master_id, m.sub_id);
+  if (spec == nullptr) {
+    return absl::InvalidArgumentError(
+        absl::StrFormat("%s: command %02X%Xxh is not in the catalogue (linmot-mc.md §5.19, D-20)",
+                        where, m.master_id, m.sub_id));
+  }
+  if (mc::CommandId{m.master_id, m.sub_id} == mc::kReset) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(where,
+                     ": Reset (00Fxh) needs count 0 (linmot-mc.md §4.3 rule 4); not sent by the "
+                     "count handshake"));
+  }
+  if (m.parameters.size() + 2 < spec->size()) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ".parameters: ", m.parameters.size(),
+                                                   " bytes, ", spec->key(), " needs ",
+                                                   spec->size() - 2));
+  }
+  mc::McBlock block{};
+  block[0] = static_cast<uint8_t>(m.sub_id << 4);
+  block[1] = m.master_id;
+  std::copy(m.parameters.begin(), m.parameters.end(), block.begin() + 2);
+  absl::StatusOr<mc::DecodedMotionCommand> decoded = mc::DecodeMotionCommand(block);
+  if (!decoded.ok()) {
+    return absl::Status(decoded.status().code(),
+                        absl::StrCat(where, ": ", decoded.status().message()));
+  }
+  std::lock_guard op(op_mu_);
+  DGW_ASSIGN_OR_RETURN(const CommandInfo info,
+                       RunMotion(absl::StrCat("Native ", spec->name), decoded->command,
+                                 /*needs_in_target=*/false, std::nullopt));
+  std::lock_guard lock(mu_);
+  NativeReply out;
+  out.command_id = info.id;
+  out.word2 = sample_.state_var.raw();
+  out.word3 = sample_.status_word.raw;
+  out.word4 = sample_.warn_word;
+  return out;
+}
+
+}  // namespace drivegw::linmot::linudp

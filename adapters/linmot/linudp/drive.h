@@ -1,0 +1,184 @@
+// LinMotUdpDrive: the Drive of a LinMot MC SW drive over LinUDP V2 — control word sequences,
+// motion commands with the count handshake, RTC parameter access, unified status.
+// Sources: linmot-mc.md §2.7, §4.3, §4.4, D-04/D-09/D-11/D-36/D-42; linmot-linudp.md §5, A-05,
+// A-07..A-10; decisions docs/decisions/701..705.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "adapters/core/clock.h"
+#include "adapters/core/drive_base.h"
+#include "adapters/linmot/linudp/codec.h"
+#include "adapters/linmot/linudp/session.h"
+#include "adapters/linmot/mc/motion_command.h"
+#include "adapters/linmot/mc/state_var.h"
+#include "adapters/linmot/mc/status_word.h"
+
+namespace drivegw::linmot::linudp {
+
+// Unified state of a LinMot main state (docs/decisions/701-linmot-state-mapping.md). Pure, for
+// tests and other LinMot transports: `online` false gives OFFLINE.
+DriveState MapLinMotState(bool online, mc::StateVar state_var, mc::StatusWord status_word);
+
+// Planned duration of a VAI move over `distance_mm` starting at speed `v0_mm_s` (any sign, as
+// magnitude towards the target is unknown it is treated as a possible reversal), linmot-mc.md
+// §6.1 (D-21) trapezoid/triangle; the basis of the D-11 completion time-out.
+Duration PlannedVaiDuration(double distance_mm, double v0_mm_s, double vmax_mm_s, double acc_mm_s2,
+                            double dec_mm_s2);
+
+class LinMotUdpDrive final : public DriveBase, private SessionPeer {
+ public:
+  // `config.linudp` must be set (CreateLinMotUdpDrive checks it); `clock` must advance in real
+  // time and outlive the drive.
+  LinMotUdpDrive(DriveConfig config, const Clock& clock);
+  ~LinMotUdpDrive() override;
+
+  std::string endpoint() const override;  // "udp://192.168.1.17:49360"
+
+  absl::StatusOr<CommandInfo> Enable() override;
+  absl::StatusOr<CommandInfo> Disable() override;
+  absl::StatusOr<CommandInfo> Home() override;
+  absl::StatusOr<CommandInfo> Move(const MotionCommand& cmd) override;
+  absl::StatusOr<CommandInfo> AcknowledgeFault() override;
+
+  absl::StatusOr<int64_t> ReadParameter(const ParameterRef& ref) override;
+  absl::Status WriteParameter(const ParameterRef& ref, int64_t value) override;
+  // LinMotMcRequest: header + parameter bytes checked against the mc catalogue, sent with the
+  // count handshake like Move; the reply's command_id is the handle id, word2 = state var,
+  // word3 = status word, word4 = warn word at acceptance. LinMotRtcRequest: one RTC transaction
+  // status and words 2-4 as the drive answered, OK even for status >= 0xC0.
+  absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) override;
+
+  // Diagnostics for the dashboard; nullopt while not ACTIVE.
+  std::optional<ExchangeCounters> exchange_counters() const;
+  std::optional<SessionCounters> session_counters() const;
+  std::optional<transport::Endpoint> local_endpoint() const;
+
+ protected:
+  absl::Status DoActivate() override;
+  void DoDeactivate() override;
+
+ private:
+  // The newest reply, decoded (linmot-linudp.md §4.2).
+  struct Sample {
+    bool valid = false;
+    mc::StateVar state_var;
+    mc::StatusWord status_word;
+    uint16_t warn_word = 0;
+    uint16_t error_code = 0;
+    int32_t actual_position = 0;  // 0.1 µm
+    int32_t demand_position = 0;  // 0.1 µm
+    std::optional<RtcReply> rtc;
+    TimePoint received{};
+  };
+  struct PositionSample {
+    TimePoint t;
+    int32_t actual;
+    int32_t demand;
+  };
+  // A motion command between Move/SendNative and its final state (linmot-mc.md §4.4).
+  struct MotionTracker {
+    uint64_t id = 0;
+    std::string kind;
+    uint8_t count = 0;
+    bool needs_in_target = true;  // motions: DONE needs In Target Position; Stop/native: no
+    bool accepted = false;
+    TimePoint accept_deadline{};
+    std::optional<Duration> planned;  // nullopt: no completion time-out (native commands)
+    std::optional<TimePoint> completion_deadline;
+  };
+  enum class HomingPhase { kStarting, kRunning, kReleasing };
+  struct HomingTracker {
+    uint64_t id = 0;
+    HomingPhase phase = HomingPhase::kStarting;
+    TimePoint deadline{};
+  };
+  // What a blocking sequence step waits for.
+  enum class Wait { kReached, kDeadline, kOffline, kInactive };
+
+  // SessionPeer (I/O thread, under the session lock).
+  Request BuildRequest() noexcept override;
+  void OnReply(const Reply& reply, TimePoint received) noexcept override;
+  void OnTimeout() noexcept override;
+  void OnLinkChange(LinkState state) noexcept override;
+
+  // All *Locked members need mu_.
+  void EvaluateTrackersLocked(TimePoint now);
+  void EvaluateMotionLocked(TimePoint now);
+  void EvaluateHomingLocked(TimePoint now);
+  void PublishLocked(bool force);
+  DriveStatus BuildStatusLocked() const;
+  void SetControlWordLocked(uint16_t cw);
+  bool OnlineLocked() const { return link_ == LinkState::kOnline && sample_.valid; }
+  uint8_t MainStateLocked() const { return sample_.state_var.main_state; }
+  std::string StateTextLocked() const;  // "main state 6 (Ready To Operate)"
+  Fault FaultLocked() const;
+  // Waits on cv_ until `reached()` (evaluated after each reply), the deadline, link loss (once
+  // the link was up) or deactivation.
+  template <typename Pred>
+  Wait WaitLocked(std::unique_lock<std::mutex>& lock, TimePoint deadline, Pred reached);
+  // Waits until a reply answered a telegram carrying the current control word.
+  Wait WaitControlWordLocked(std::unique_lock<std::mutex>& lock, TimePoint deadline);
+  absl::Status WaitOnlineLocked(std::unique_lock<std::mutex>& lock, TimePoint deadline,
+                                const char* operation);
+  absl::Status WaitFailure(Wait w, const char* operation, const std::string& detail) const;
+
+  // Ends command `id` with `status` mapped to ERROR (or DONE when ok) and returns the result
+  // the API call hands back.
+  absl::StatusOr<CommandInfo> Finish(uint64_t id, const absl::Status& status);
+
+  // Move/SendNative common path: checks state 8, creates the handle, runs the count handshake.
+  absl::StatusOr<CommandInfo> RunMotion(const std::string& kind, const mc::McCommand& cmd,
+                                        bool needs_in_target, std::optional<Duration> planned);
+  absl::StatusOr<mc::McCommand> BuildMotion(const MotionCommand& cmd, bool& needs_in_target,
+                                            Duration& planned);
+  // One RTC transaction; returns the final reply (status may be >= 0xC0).
+  absl::StatusOr<RtcReply> RtcTransact(uint8_t command_id, uint16_t word2, uint16_t word3,
+                                       uint16_t word4, Duration timeout, const std::string& what);
+
+  const Clock& clock_;
+  const std::string name_;
+
+  std::mutex op_mu_;   // one control-word / motion operation at a time
+  std::mutex rtc_mu_;  // one RTC transaction at a time
+
+  mutable std::mutex mu_;  // below; lock order: session lock -> mu_ -> DriveBase's lock
+  std::condition_variable cv_;
+  bool active_ = false;
+  std::shared_ptr<Session> session_;
+  PeerId peer_id_ = 0;
+  LinkState link_ = LinkState::kUnknown;
+  Sample sample_;
+  std::deque<PositionSample> history_;  // velocity window
+  double velocity_mm_s_ = 0;            // from actual positions (decision 703)
+  double demand_velocity_mm_s_ = 0;     // from demand positions, for planning
+  uint64_t replies_ = 0;
+
+  // Outbound state: what every telegram carries (linmot-linudp.md §3).
+  std::optional<uint16_t> control_word_;  // unset: no control word block (linudp §6.8)
+  uint64_t cw_generation_ = 0;
+  uint64_t cw_in_flight_ = 0;  // generation carried by the outstanding telegram
+  uint64_t cw_answered_ = 0;   // generation carried by the telegram the newest reply answered
+  std::optional<mc::McBlock> mc_block_;
+  std::optional<RtcRequest> rtc_block_;
+  uint64_t rtc_generation_ = 0;
+  uint64_t rtc_in_flight_ = 0;
+  uint64_t rtc_answered_ = 0;
+
+  std::optional<MotionTracker> motion_;
+  uint64_t accepted_id_ = 0;  // newest motion command the drive accepted (count echo seen)
+  std::optional<HomingTracker> homing_;
+
+  std::optional<DriveStatus> published_;
+  TimePoint published_at_{};
+};
+
+}  // namespace drivegw::linmot::linudp

@@ -1,0 +1,57 @@
+// Factory of the LinMot-over-LinUDP drive family: config checks naming the field, then the drive.
+#include "adapters/linmot/linudp/factory.h"
+
+#include "absl/strings/str_cat.h"
+#include "adapters/linmot/linudp/drive.h"
+#include "adapters/transport/endpoint.h"
+
+namespace drivegw::linmot::linudp {
+
+absl::StatusOr<std::unique_ptr<Drive>> CreateLinMotUdpDrive(const DriveConfig& config,
+                                                            const Clock& clock) {
+  const std::string where = absl::StrCat("drive '", config.name, "'");
+  if (!config.linudp) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ".linudp: missing (family '", config.family,
+                     "' needs the LinUDP section: host, port, master_port, ...)"));
+  }
+  const LinUdpConfig& c = *config.linudp;
+  if (auto e = transport::Endpoint::Parse(c.host, c.port); !e.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ".linudp.host: ", e.status().message()));
+  }
+  if (c.port == 0) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ".linudp.port: 0 is not a drive port"));
+  }
+  if (auto e = transport::Endpoint::Parse(c.bind_host, c.master_port); !e.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ".linudp.bind_host: ", e.status().message()));
+  }
+  if (c.cycle < std::chrono::milliseconds(1)) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ".linudp.cycle: ", c.cycle.count(),
+                                                   " ms is below 1 ms (linmot-linudp.md A-10)"));
+  }
+  if (c.reply_timeout <= std::chrono::milliseconds(0)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        where, ".linudp.reply_timeout: ", c.reply_timeout.count(), " ms must be positive"));
+  }
+  if (c.lost_after_timeouts < 1) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        where, ".linudp.lost_after_timeouts: ", c.lost_after_timeouts, " must be at least 1"));
+  }
+  const TimeoutConfig& t = config.timeouts;
+  for (const auto& [field, value] : {std::pair{"request", t.request}, std::pair{"accept", t.accept},
+                                     std::pair{"homing", t.homing}}) {
+    if (value <= std::chrono::milliseconds(0)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(where, ".timeouts.", field, ": ", value.count(), " ms must be positive"));
+    }
+  }
+  if (!(config.axis.min_mm < config.axis.max_mm)) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ".axis.min_mm: ", config.axis.min_mm,
+                                                   " must be below axis.max_mm ",
+                                                   config.axis.max_mm));
+  }
+  return std::unique_ptr<Drive>(new LinMotUdpDrive(config, clock));
+}
+
+}  // namespace drivegw::linmot::linudp

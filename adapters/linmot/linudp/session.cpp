@@ -1,0 +1,306 @@
+// LinUDP master session: cyclic exchange, reply routing, time-outs and link supervision.
+#include "adapters/linmot/linudp/session.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "adapters/core/log.h"
+
+namespace drivegw::linmot::linudp {
+namespace {
+
+// Upper bound of one wait of the I/O thread with nothing scheduled; Register and Stop wake it.
+constexpr Duration kIdleWait = std::chrono::milliseconds(200);
+
+void Add(ExchangeCounters& into, const ExchangeCounters& c) {
+  into.telegrams_sent += c.telegrams_sent;
+  into.send_errors += c.send_errors;
+  into.replies += c.replies;
+  into.timeouts += c.timeouts;
+  into.malformed += c.malformed;
+  into.late += c.late;
+  into.header_mismatch += c.header_mismatch;
+}
+
+}  // namespace
+
+const char* ToString(LinkState s) {
+  switch (s) {
+    case LinkState::kUnknown:
+      return "UNKNOWN";
+    case LinkState::kOnline:
+      return "ONLINE";
+    case LinkState::kOffline:
+      return "OFFLINE";
+  }
+  return "?";
+}
+
+absl::StatusOr<std::shared_ptr<Session>> Session::Open(const transport::Endpoint& local,
+                                                       const Clock& clock) {
+  // Exclusive bind: a second gateway on the same master port must fail loudly instead of
+  // stealing half of the replies (docs/decisions/202-udp-reuseaddr.md).
+  transport::UdpSocket::BindOptions options;
+  options.reuse_address = false;
+  auto socket = transport::UdpSocket::Bind(local, options);
+  if (!socket.ok()) return socket.status();
+  std::shared_ptr<Session> session(new Session(std::move(*socket), clock));
+  session->thread_ = std::thread([s = session.get()] { s->Run(); });
+  log::Info("linudp_session",
+            log::Fields().Add("local", session->local_.ToString()).Add("event", "open"));
+  return session;
+}
+
+Session::Session(transport::UdpSocket socket, const Clock& clock)
+    : clock_(clock), socket_(std::move(socket)), local_(socket_.local_endpoint()) {}
+
+Session::~Session() { Stop(); }
+
+void Session::Stop() {
+  std::lock_guard stop_lock(stop_mu_);
+  {
+    std::lock_guard lock(mu_);
+    if (stopping_ && !thread_.joinable()) return;
+    stopping_ = true;
+  }
+  socket_.Shutdown();  // releases a blocked Receive at once
+  if (thread_.joinable()) {
+    thread_.join();
+    log::Info("linudp_session",
+              log::Fields().Add("local", local_.ToString()).Add("event", "closed"));
+  }
+}
+
+absl::StatusOr<PeerId> Session::Register(const PeerOptions& options, SessionPeer* peer) {
+  if (peer == nullptr) return absl::InvalidArgumentError("linudp session: peer is null");
+  if (options.cycle < std::chrono::milliseconds(1)) {
+    return absl::InvalidArgumentError(absl::StrCat("drive '", options.name,
+                                                   "'.linudp.cycle: ", options.cycle.count(),
+                                                   " ms is below 1 ms (A-10)"));
+  }
+  if (options.reply_timeout <= std::chrono::milliseconds(0)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "drive '", options.name, "'.linudp.reply_timeout: ", options.reply_timeout.count(),
+        " ms must be positive"));
+  }
+  if (options.lost_after_timeouts < 1) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "drive '", options.name, "'.linudp.lost_after_timeouts: ", options.lost_after_timeouts,
+        " must be at least 1"));
+  }
+  PeerId id;
+  {
+    std::lock_guard lock(mu_);
+    if (stopping_) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("linudp session ", local_.ToString(), ": stopped"));
+    }
+    if (auto it = by_remote_.find(options.remote); it != by_remote_.end()) {
+      return absl::AlreadyExistsError(absl::StrCat(
+          "drive '", options.name, "': linudp session ", local_.ToString(), " already serves ",
+          options.remote.ToString(), " for drive '", peers_.at(it->second).options.name, "'"));
+    }
+    id = next_id_++;
+    Peer p;
+    p.options = options;
+    p.peer = peer;
+    p.next_send = clock_.Now();
+    peers_.emplace(id, std::move(p));
+    by_remote_.emplace(options.remote, id);
+  }
+  socket_.Wake();  // the loop recomputes its schedule and sends the first telegram
+  log::Info("linudp_peer", log::Fields()
+                               .Add("drive", options.name)
+                               .Add("local", local_.ToString())
+                               .Add("remote", options.remote.ToString())
+                               .Add("event", "registered"));
+  return id;
+}
+
+void Session::Unregister(PeerId id) {
+  std::lock_guard lock(mu_);
+  auto it = peers_.find(id);
+  if (it == peers_.end()) return;
+  Add(counters_.total, it->second.counters);
+  by_remote_.erase(it->second.options.remote);
+  log::Info("linudp_peer", log::Fields()
+                               .Add("drive", it->second.options.name)
+                               .Add("local", local_.ToString())
+                               .Add("event", "unregistered"));
+  peers_.erase(it);
+}
+
+SessionCounters Session::counters() const {
+  std::lock_guard lock(mu_);
+  SessionCounters c = counters_;
+  for (const auto& [id, p] : peers_) Add(c.total, p.counters);
+  const transport::UdpSocketCounters s = socket_.counters();
+  c.receive_errors = s.receive_errors;
+  return c;
+}
+
+std::optional<ExchangeCounters> Session::peer_counters(PeerId id) const {
+  std::lock_guard lock(mu_);
+  auto it = peers_.find(id);
+  if (it == peers_.end()) return std::nullopt;
+  return it->second.counters;
+}
+
+std::optional<LinkState> Session::link_state(PeerId id) const {
+  std::lock_guard lock(mu_);
+  auto it = peers_.find(id);
+  if (it == peers_.end()) return std::nullopt;
+  return it->second.link;
+}
+
+size_t Session::peer_count() const {
+  std::lock_guard lock(mu_);
+  return peers_.size();
+}
+
+void Session::SetLinkLocked(Peer& p, LinkState to) {
+  if (p.link == to) return;
+  const LinkState from = p.link;
+  p.link = to;
+  log::Fields fields;
+  fields.Add("drive", p.options.name)
+      .Add("remote", p.options.remote.ToString())
+      .Add("from", ToString(from))
+      .Add("to", ToString(to));
+  if (to == LinkState::kOffline) {
+    // lost after lost_after_timeouts consecutive time-outs; the exchange keeps probing.
+    fields.Add("timeouts", p.consecutive_timeouts);
+    log::Warn("linudp_link", fields);
+  } else {
+    log::Info("linudp_link", fields);
+  }
+  p.peer->OnLinkChange(to);
+}
+
+Duration Session::ServiceLocked(TimePoint now) {
+  TimePoint wake = now + kIdleWait;
+  for (auto& [id, p] : peers_) {
+    if (p.outstanding && now >= p.reply_deadline) {
+      // the request is given up; a reply arriving now counts as late.
+      p.outstanding = false;
+      ++p.counters.timeouts;
+      ++p.consecutive_timeouts;
+      p.peer->OnTimeout();
+      if (p.consecutive_timeouts >= p.options.lost_after_timeouts) {
+        SetLinkLocked(p, LinkState::kOffline);
+      }
+    }
+    if (!p.outstanding && now >= p.next_send) {
+      const Request request = p.peer->BuildRequest();
+      const std::vector<uint8_t> bytes = EncodeRequest(request);
+      ++p.counters.telegrams_sent;
+      if (absl::Status s = socket_.SendTo(p.options.remote, bytes); !s.ok()) {
+        ++p.counters.send_errors;
+        log::Debug("linudp_send_error",
+                   log::Fields().Add("drive", p.options.name).Add("error", s.message()));
+      }
+      // Outstanding even after a send error: the time-out then feeds link supervision.
+      p.outstanding = true;
+      p.asked_response = request.response_definition & kRespDefinedMask;
+      p.sent_request = RequestDefinitionOf(request);
+      p.reply_deadline = now + p.options.reply_timeout;
+      // the next telegram leaves after the reply or time-out, never before the cycle.
+      p.next_send = now + p.options.cycle;
+    }
+    wake = std::min(wake, p.outstanding ? p.reply_deadline : p.next_send);
+  }
+  return std::max(Duration::zero(), wake - now);
+}
+
+void Session::HandleDatagramLocked(const transport::Datagram& d, TimePoint now) {
+  auto route = by_remote_.find(d.from);
+  if (route == by_remote_.end()) {
+    // A-07 routing by source ip:port; a stranger is counted and dropped.
+    ++counters_.unknown_source;
+    log::Debug("linudp_unknown_source", log::Fields()
+                                            .Add("local", local_.ToString())
+                                            .Add("from", d.from.ToString())
+                                            .Add("bytes", d.bytes.size()));
+    return;
+  }
+  Peer& p = peers_.at(route->second);
+  if (!p.outstanding) {
+    ++p.counters.late;
+    log::Debug("linudp_late",
+               log::Fields().Add("drive", p.options.name).Add("bytes", d.bytes.size()));
+    return;
+  }
+  absl::StatusOr<Reply> reply = DecodeReply(d.bytes);
+  if (!reply.ok()) {
+    // shorter than its own layout; counted and dropped, the request stays outstanding.
+    ++p.counters.malformed;
+    log::Debug("linudp_malformed",
+               log::Fields().Add("drive", p.options.name).Add("error", reply.status().message()));
+    return;
+  }
+  const uint32_t missing = p.asked_response & ~reply->response_definition;
+  if (missing != 0) {
+    // a reply lacking a block we asked for is rejected.
+    ++p.counters.malformed;
+    log::Debug("linudp_malformed",
+               log::Fields()
+                   .Add("drive", p.options.name)
+                   .Add("missing_response_bits", absl::StrFormat("0x%03X", missing)));
+    return;
+  }
+  if ((reply->request_definition & kReqDefinedMask) != p.sent_request) {
+    ++p.counters.header_mismatch;  // bytes 0-3 are logged, never checked
+    log::Debug("linudp_header_mismatch",
+               log::Fields()
+                   .Add("drive", p.options.name)
+                   .Add("sent", absl::StrFormat("0x%X", p.sent_request))
+                   .Add("echo", absl::StrFormat("0x%X", reply->request_definition)));
+  }
+  p.outstanding = false;
+  p.consecutive_timeouts = 0;
+  ++p.counters.replies;
+  SetLinkLocked(p, LinkState::kOnline);
+  p.peer->OnReply(*reply, now);
+}
+
+void Session::Run() {
+  std::unique_lock lock(mu_);
+  while (!stopping_) {
+    const Duration wait = ServiceLocked(clock_.Now());
+    lock.unlock();
+    absl::StatusOr<std::optional<transport::Datagram>> got = socket_.Receive(wait);
+    lock.lock();
+    if (stopping_) break;
+    if (!got.ok()) {
+      if (absl::IsCancelled(got.status())) break;  // Shutdown
+      log::Warn("linudp_receive_error",
+                log::Fields().Add("local", local_.ToString()).Add("error", got.status().message()));
+      continue;
+    }
+    if (got->has_value()) HandleDatagramLocked(**got, clock_.Now());
+  }
+}
+
+SessionPool& SessionPool::Instance() {
+  static SessionPool* pool = new SessionPool();  // never destroyed: sessions may outlive main
+  return *pool;
+}
+
+absl::StatusOr<std::shared_ptr<Session>> SessionPool::Acquire(const transport::Endpoint& local,
+                                                              const Clock& clock) {
+  if (local.port == 0) return Session::Open(local, clock);
+  std::lock_guard lock(mu_);
+  auto it = sessions_.find(local);
+  if (it != sessions_.end()) {
+    if (std::shared_ptr<Session> live = it->second.lock()) return live;
+    sessions_.erase(it);
+  }
+  auto opened = Session::Open(local, clock);
+  if (!opened.ok()) return opened.status();
+  sessions_[local] = *opened;
+  return *opened;
+}
+
+}  // namespace drivegw::linmot::linudp

@@ -1,0 +1,151 @@
+// LinUDP master session: one UDP socket per local endpoint, one I/O thread running the cyclic
+// request/reply exchange with every registered drive (linmot-linudp.md §6, A-01, A-02, A-06,
+// Bytes <-> structs stay in codec.h; what goes into a telegram is the peer's job.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <unordered_map>
+
+#include "absl/status/statusor.h"
+#include "adapters/core/clock.h"
+#include "adapters/linmot/linudp/codec.h"
+#include "adapters/transport/endpoint.h"
+#include "adapters/transport/udp_socket.h"
+
+namespace drivegw::linmot::linudp {
+
+// Exchange counters, for the dashboard. Per peer and summed per session.
+struct ExchangeCounters {
+  uint64_t telegrams_sent = 0;   // requests handed to the socket (send errors included)
+  uint64_t send_errors = 0;      // SendTo failures (the request then times out)
+  uint64_t replies = 0;          // valid replies matched to an outstanding request
+  uint64_t timeouts = 0;         // requests without a valid reply within reply_timeout
+  uint64_t malformed = 0;        // undecodable, short or missing asked-for blocks
+  uint64_t late = 0;             // datagrams from the drive while no request was outstanding
+  uint64_t header_mismatch = 0;  // bytes 0-3 differ from the request definition (A-02: logged only)
+};
+
+struct SessionCounters {
+  ExchangeCounters total;       // sum over every peer ever registered
+  uint64_t unknown_source = 0;  // datagrams from an endpoint no peer is registered for
+  uint64_t receive_errors = 0;  // socket errors while receiving (the loop goes on)
+};
+
+enum class LinkState { kUnknown, kOnline, kOffline };
+const char* ToString(LinkState s);
+
+// The drive side of a registration. Called on the session's I/O thread while the session holds
+// its registration lock: implementations must be quick, must not block on the network and must
+// never call back into the Session (Register/Unregister/counters) from inside a callback.
+class SessionPeer {
+ public:
+  virtual ~SessionPeer() = default;
+  // The next telegram for this drive (A-04: the codec sends complete blocks). The session adds
+  // nothing; the response definition asked for here is what A-02 checks the reply against.
+  virtual Request BuildRequest() noexcept = 0;
+  // A valid reply to the outstanding request, with the time it was received.
+  virtual void OnReply(const Reply& reply, TimePoint received) noexcept = 0;
+  // A request went unanswered for reply_timeout.
+  virtual void OnTimeout() noexcept {}
+  // kOnline on the first reply and on recovery, kOffline after lost_after_timeouts consecutive
+  // time-outs.
+  virtual void OnLinkChange(LinkState state) noexcept = 0;
+};
+
+struct PeerOptions {
+  std::string name;            // drive name, for logs
+  transport::Endpoint remote;  // the drive: replies are routed by this ip:port
+  std::chrono::milliseconds cycle{5};
+  std::chrono::milliseconds reply_timeout{50};
+  int lost_after_timeouts = 5;
+};
+
+using PeerId = uint64_t;
+
+class Session {
+ public:
+  // Binds `local` and starts the I/O thread. `clock` must advance in real time (the socket
+  // waits in real time) and outlive the session.
+  static absl::StatusOr<std::shared_ptr<Session>> Open(const transport::Endpoint& local,
+                                                       const Clock& clock);
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+
+  // Adds a drive to the cyclic exchange; its first telegram leaves at once. InvalidArgument for
+  // a cycle below 1 ms, a non-positive reply time-out or lost_after_timeouts < 1;
+  // AlreadyExists when another peer already uses `options.remote` (replies could not be told
+  // apart); FailedPrecondition after Stop.
+  absl::StatusOr<PeerId> Register(const PeerOptions& options, SessionPeer* peer);
+  // Removes a drive. When it returns, no callback of that peer runs or will run. Unknown ids
+  // are ignored.
+  void Unregister(PeerId id);
+
+  // Stops the I/O thread (wakes it and joins) and shuts the socket; idempotent, also done by the
+  // destructor. Peers get no further callbacks.
+  void Stop();
+
+  // The bound address (with the kernel's port when opened with port 0).
+  transport::Endpoint local_endpoint() const { return local_; }
+  SessionCounters counters() const;
+  std::optional<ExchangeCounters> peer_counters(PeerId id) const;
+  std::optional<LinkState> link_state(PeerId id) const;
+  size_t peer_count() const;
+
+ private:
+  struct Peer {
+    PeerOptions options;
+    SessionPeer* peer = nullptr;
+    ExchangeCounters counters;
+    LinkState link = LinkState::kUnknown;
+    int consecutive_timeouts = 0;
+    bool outstanding = false;
+    uint32_t asked_response = 0;  // response definition of the outstanding request
+    uint32_t sent_request = 0;    // request definition of the outstanding request
+    TimePoint next_send{};
+    TimePoint reply_deadline{};
+  };
+
+  Session(transport::UdpSocket socket, const Clock& clock);
+  void Run();
+  // Sends what is due and handles expired requests; returns how long the loop may wait.
+  Duration ServiceLocked(TimePoint now);
+  void HandleDatagramLocked(const transport::Datagram& d, TimePoint now);
+  void SetLinkLocked(Peer& p, LinkState to);
+
+  const Clock& clock_;
+  transport::UdpSocket socket_;
+  const transport::Endpoint local_;
+  mutable std::mutex mu_;  // registrations, peer state, counters; held during peer callbacks
+  bool stopping_ = false;
+  PeerId next_id_ = 1;
+  std::map<PeerId, Peer> peers_;
+  std::unordered_map<transport::Endpoint, PeerId> by_remote_;
+  SessionCounters counters_;
+  std::mutex stop_mu_;  // serialises Stop() callers around the join
+  std::thread thread_;
+};
+
+// Process-wide registry handing out one Session per local endpoint, so that every drive
+// configured with the same bind_host:master_port shares one socket. A Session lives as
+// long as a drive holds it. Port 0 never shares: each call opens a fresh ephemeral socket.
+class SessionPool {
+ public:
+  static SessionPool& Instance();
+  // The live session bound to `local`, or a newly opened one (bind errors name the address).
+  absl::StatusOr<std::shared_ptr<Session>> Acquire(const transport::Endpoint& local,
+                                                   const Clock& clock);
+
+ private:
+  std::mutex mu_;
+  std::unordered_map<transport::Endpoint, std::weak_ptr<Session>> sessions_;
+};
+
+}  // namespace drivegw::linmot::linudp
