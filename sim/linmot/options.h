@@ -14,6 +14,10 @@
 
 namespace drivegw::sim::linmot {
 
+// The wire-level LinMot namespaces, as seen from inside the simulator's own namespace.
+namespace mc = ::drivegw::linmot::mc;
+namespace linudp = ::drivegw::linmot::linudp;
+
 // linmot-linudp.md fact 1.9 / A-15: which senders the drive answers.
 enum class MasterFilter {
   kNoFilter,           // default: answer any sender (subject to the A-01 port rule)
@@ -25,20 +29,20 @@ struct SimOptions {
   // ---- identity and network (LinUDP, linmot-linudp.md §1, A-01) ----
   std::string name = "linmot";
   // Where the drive listens; port 0 = ephemeral (read back with LinMotServer::port()).
-  transport::Endpoint bind{transport::Endpoint::kLoopback, linmot::linudp::kDrivePort};
+  transport::Endpoint bind{transport::Endpoint::kLoopback, linudp::kDrivePort};
   // datagrams from another source port are dropped (counted); replies go to
   // <source ip>:<master_port>. 0 = answer any source port, replying to the source port (tests).
-  uint16_t master_port = linmot::linudp::kMasterPort;
+  uint16_t master_port = linudp::kMasterPort;
   MasterFilter master_filter = MasterFilter::kNoFilter;
   uint32_t master_ip = 0;  // host byte order; kSingleMasterFixIp only
   // replies are zero-filled to this UDP payload size (14 observed; 64 = the manual).
-  size_t min_reply_payload = linmot::linudp::kMinReplyPayload;
+  size_t min_reply_payload = linudp::kMinReplyPayload;
 
   // ---- simulated time (D-23) ----
   Duration tick = std::chrono::milliseconds(1);  // fixed physics step, 0.25 ms ... 10 ms
 
   // ---- product (D-20: command availability per §5 columns) ----
-  linmot::mc::Product product = linmot::mc::Product::kC1250;
+  mc::Product product = mc::Product::kC1250;
   bool force_control_key = false;
 
   // ---- mechanics (sim/motion Axis, physical frame = reported frame at power-up) ----
