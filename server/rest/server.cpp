@@ -1,0 +1,564 @@
+// REST server: Beast listener and HTTP/1.1 sessions (keep-alive, bounded pipelining, chunked
+// NDJSON streams, deadlines) in front of the socketless router. The only Beast TU of dgw_rest.
+#include "server/rest/server.h"
+
+#include <atomic>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/asio/write.hpp>
+#include <boost/beast/core/bind_handler.hpp>
+#include <boost/beast/core/flat_buffer.hpp>
+#include <boost/beast/http.hpp>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "adapters/core/log.h"
+#include "server/rest/router.h"
+
+namespace drivegw::rest {
+namespace {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using beast::error_code;
+
+constexpr size_t kMaxPipelined = 8;       // requests read ahead of their responses
+constexpr uint32_t kHeaderLimit = 16384;  // request line + headers
+constexpr int kInvalidArgument = 3;
+constexpr int kResourceExhausted = 8;
+
+std::string Str(beast::string_view s) { return std::string(s.data(), s.size()); }
+
+std::string PeerString(const tcp::endpoint& ep) {
+  const auto address = ep.address();
+  return address.is_v6() ? absl::StrCat("[", address.to_string(), "]:", ep.port())
+                         : absl::StrCat(address.to_string(), ":", ep.port());
+}
+
+// A wait that completed may have been re-armed meanwhile (its handler was already queued).
+bool Expired(const net::steady_timer& t) {
+  return t.expiry() <= net::steady_timer::clock_type::now();
+}
+
+bool IsParseError(const error_code& ec) {
+  return ec.category() == http::make_error_code(http::error::bad_target).category();
+}
+
+class Session;
+
+// State every session reads; owned by RestServer::Impl, which outlives the sessions.
+struct Shared {
+  RestOptions options;
+  std::unique_ptr<Router> router;
+  std::mutex sessions_mu;
+  std::map<Session*, std::weak_ptr<Session>> sessions;
+};
+
+// One connection. All members are touched on the socket's strand only; router callbacks come
+// in through Exchange, which posts them there.
+class Session : public std::enable_shared_from_this<Session> {
+ public:
+  Session(tcp::socket&& socket, Shared& shared)
+      : socket_(std::move(socket)),
+        shared_(shared),
+        idle_timer_(socket_.get_executor()),
+        write_timer_(socket_.get_executor()) {
+    error_code ec;
+    const auto ep = socket_.remote_endpoint(ec);
+    peer_ = ec ? "unknown" : PeerString(ep);
+  }
+
+  ~Session() {
+    for (auto& slot : slots_) {
+      if (slot.stream) slot.stream->Cancel();
+    }
+    std::lock_guard lock(shared_.sessions_mu);
+    shared_.sessions.erase(this);
+  }
+
+  void Run() {
+    {
+      std::lock_guard lock(shared_.sessions_mu);
+      shared_.sessions.emplace(this, weak_from_this());
+    }
+    net::post(socket_.get_executor(), [self = shared_from_this()] { self->DoRead(); });
+  }
+
+  // For RestServer::Stop once the I/O threads are joined (no other thread touches us then).
+  void CloseNow() { DoClose(); }
+
+  // --- router events, on the strand (posted by Exchange) ---
+  void OnResponse(uint64_t id, HttpResponse response) {
+    if (Slot* s = Find(id)) s->response = std::move(response);
+    Pump();
+  }
+  void OnStreamStarted(uint64_t id, std::shared_ptr<StreamCall> stream) {
+    Slot* s = Find(id);
+    if (s == nullptr) {  // connection already gone
+      stream->Cancel();
+      return;
+    }
+    s->stream = std::move(stream);
+    s->streaming = true;
+    s->stream->RequestNext();
+  }
+  void OnStreamMessage(uint64_t id, std::string line) {
+    if (Slot* s = Find(id)) s->lines.push_back(std::move(line));
+    Pump();
+  }
+  void OnStreamEnd(uint64_t id, HttpResponse end) {
+    if (Slot* s = Find(id)) {
+      s->end = std::move(end);
+      s->stream.reset();
+    }
+    Pump();
+  }
+
+ private:
+  // One request in arrival order, with its response as it becomes ready.
+  struct Slot {
+    uint64_t id = 0;
+    unsigned version = 11;
+    bool keep_alive = true;
+    std::string method, target;
+    std::optional<HttpResponse> response;  // a whole response
+    bool streaming = false;                // an NDJSON stream (OnStreamStarted seen)
+    std::shared_ptr<StreamCall> stream;    // until OnStreamEnd
+    std::deque<std::string> lines;
+    std::optional<HttpResponse> end;
+    bool head_sent = false;
+    bool error_line_sent = false;
+  };
+
+  Slot* Find(uint64_t id) {
+    for (auto& s : slots_) {
+      if (s.id == id) return &s;
+    }
+    return nullptr;
+  }
+
+  // --- reading ---
+  void DoRead() {
+    if (reading_ || closed_ || peer_done_ || slots_.size() >= kMaxPipelined) return;
+    parser_.emplace();
+    parser_->body_limit(shared_.options.body_limit);
+    parser_->header_limit(kHeaderLimit);
+    reading_ = true;
+    UpdateIdleDeadline();
+    http::async_read(socket_, buffer_, *parser_,
+                     beast::bind_front_handler(&Session::OnRead, shared_from_this()));
+  }
+
+  void OnRead(error_code ec, size_t /*bytes*/) {
+    reading_ = false;
+    if (closed_) return;
+    if (ec == http::error::end_of_stream) {
+      // The client closed (or half-closed) its side: a stream has nobody to go to; pending
+      // whole responses are still written, then the connection closes.
+      peer_done_ = true;
+      for (auto& s : slots_) {
+        if (s.stream) s.stream->Cancel();
+      }
+      if (slots_.empty()) DoClose();
+      return;
+    }
+    if (ec == http::error::body_limit) {
+      return Reject(ErrorResponse(413, kResourceExhausted,
+                                  absl::StrCat("request body exceeds the limit of ",
+                                               shared_.options.body_limit, " bytes")));
+    }
+    if (ec == http::error::header_limit) {
+      return Reject(ErrorResponse(431, kResourceExhausted,
+                                  absl::StrCat("request header exceeds ", kHeaderLimit, " bytes")));
+    }
+    if (ec && IsParseError(ec) && ec != http::error::partial_message) {
+      return Reject(ErrorResponse(400, kInvalidArgument,
+                                  absl::StrCat("malformed HTTP request: ", ec.message())));
+    }
+    if (ec) {
+      if (ec != net::error::operation_aborted) {
+        log::Debug("rest.read", log::Fields().Add("peer", peer_).Add("error", ec.message()));
+      }
+      return DoClose();
+    }
+
+    auto req = parser_->release();
+    if (!accepting_) {  // requests after "Connection: close" are ignored; keep watching EOF
+      DoRead();
+      return;
+    }
+    Slot slot;
+    slot.id = next_id_++;
+    slot.version = req.version();
+    slot.keep_alive = req.keep_alive();
+    slot.method = Str(req.method_string());
+    slot.target = Str(req.target());
+    accepting_ = slot.keep_alive;
+    HttpRequest request{slot.method, slot.target, std::move(req.body()), peer_};
+    const uint64_t id = slot.id;
+    slots_.push_back(std::move(slot));
+    UpdateIdleDeadline();
+    shared_.router->Handle(std::move(request), std::make_shared<Exchange>(shared_from_this(), id));
+    DoRead();  // read ahead (pipelining) and notice a client that goes away
+  }
+
+  // Answers a request the parser could not take, then closes: the rest of the stream has no
+  // known framing.
+  void Reject(HttpResponse response) {
+    log::Debug("rest.reject", log::Fields().Add("peer", peer_).Add("status", response.status));
+    Slot slot;
+    slot.id = next_id_++;
+    slot.keep_alive = false;
+    slot.response = std::move(response);
+    accepting_ = false;
+    peer_done_ = true;  // read no further
+    slots_.push_back(std::move(slot));
+    UpdateIdleDeadline();
+    Pump();
+  }
+
+  // A request must arrive in full within read_timeout of the connection going idle (no
+  // response pending): idle keep-alive connections and slow senders are closed; read-ahead
+  // while responses are pending or streaming has no deadline of its own.
+  void UpdateIdleDeadline() {
+    if (slots_.empty() && reading_) {
+      idle_timer_.expires_after(shared_.options.read_timeout);
+      idle_timer_.async_wait([self = shared_from_this()](error_code ec) {
+        if (!ec && self->slots_.empty() && Expired(self->idle_timer_)) {
+          log::Debug("rest.idle_timeout", log::Fields().Add("peer", self->peer_));
+          self->DoClose();
+        }
+      });
+    } else {
+      idle_timer_.cancel();
+    }
+  }
+
+  // --- writing ---
+  void Pump() {
+    if (writing_ || closed_ || slots_.empty()) return;
+    Slot& s = slots_.front();
+    if (s.response) return WriteWhole(s, *s.response);
+    if (!s.streaming) return;  // the router has not answered yet
+    if (!s.head_sent) {
+      if (!s.lines.empty() || (s.end && s.end->status == 200)) return WriteStreamHead(s);
+      if (s.end) return WriteWhole(s, *s.end);  // failed before its first message
+      return;
+    }
+    if (!s.lines.empty()) {
+      auto line = std::make_shared<std::string>(std::move(s.lines.front()));
+      s.lines.pop_front();
+      return WriteBody(s, std::move(line), /*last=*/false);
+    }
+    if (s.end) {
+      if (s.end->status != 200 && !s.error_line_sent) {
+        s.error_line_sent = true;
+        auto line = std::make_shared<std::string>(absl::StrCat("{\"error\":", s.end->body, "}\n"));
+        return WriteBody(s, std::move(line), /*last=*/false);
+      }
+      return WriteBody(s, nullptr, /*last=*/true);
+    }
+  }
+
+  void StartWriteDeadline() {
+    writing_ = true;
+    write_timer_.expires_after(shared_.options.read_timeout);
+    write_timer_.async_wait([self = shared_from_this()](error_code ec) {
+      if (!ec && self->writing_ && Expired(self->write_timer_)) {
+        log::Debug("rest.write_timeout", log::Fields().Add("peer", self->peer_));
+        self->DoClose();
+      }
+    });
+  }
+
+  bool KeepAlive(const Slot& s) const { return s.keep_alive && !peer_done_ && accepting_; }
+
+  void WriteWhole(Slot& s, const HttpResponse& r) {
+    auto res = std::make_shared<http::response<http::string_body>>(
+        static_cast<http::status>(r.status), s.version);
+    res->set(http::field::server, "drivegw");
+    res->set(http::field::content_type, r.content_type);
+    for (const auto& [name, value] : r.headers) res->set(name, value);
+    res->keep_alive(KeepAlive(s));
+    res->body() = r.body;
+    res->prepare_payload();
+    log::Debug("rest.response", log::Fields()
+                                    .Add("peer", peer_)
+                                    .Add("method", s.method)
+                                    .Add("target", s.target)
+                                    .Add("status", r.status));
+    StartWriteDeadline();
+    http::async_write(socket_, *res, [self = shared_from_this(), res](error_code ec, size_t) {
+      self->OnWritten(ec, /*done=*/true, !res->keep_alive());
+    });
+  }
+
+  void WriteStreamHead(Slot& s) {
+    s.head_sent = true;
+    auto res = std::make_shared<http::response<http::empty_body>>(http::status::ok, s.version);
+    res->set(http::field::server, "drivegw");
+    res->set(http::field::content_type, "application/x-ndjson");
+    res->set(http::field::cache_control, "no-cache");
+    // HTTP/1.0 has no chunked encoding: the body then ends when the connection closes.
+    if (s.version >= 11) {
+      res->chunked(true);
+      res->keep_alive(KeepAlive(s));
+    } else {
+      res->keep_alive(false);
+      s.keep_alive = false;
+    }
+    auto sr = std::make_shared<http::response_serializer<http::empty_body>>(*res);
+    log::Debug("rest.stream", log::Fields().Add("peer", peer_).Add("target", s.target));
+    StartWriteDeadline();
+    http::async_write_header(socket_, *sr,
+                             [self = shared_from_this(), res, sr](error_code ec, size_t) {
+                               self->OnWritten(ec, /*done=*/false, false);
+                             });
+  }
+
+  void WriteBody(Slot& s, std::shared_ptr<std::string> line, bool last) {
+    StartWriteDeadline();
+    auto self = shared_from_this();
+    const bool chunked = s.version >= 11;
+    const bool close_after = last && !KeepAlive(s);
+    if (last) {
+      if (!chunked) return OnWritten({}, /*done=*/true, /*close=*/true);
+      net::async_write(socket_, http::make_chunk_last(),
+                       [self, close_after](error_code ec, size_t) {
+                         self->OnWritten(ec, /*done=*/true, close_after);
+                       });
+      return;
+    }
+    auto on_done = [self, line, stream = s.stream](error_code ec, size_t) {
+      self->OnWritten(ec, /*done=*/false, false);
+      if (!ec && stream) stream->RequestNext();  // flow control: one line in flight
+    };
+    if (chunked) {
+      net::async_write(socket_, http::make_chunk(net::buffer(*line)), std::move(on_done));
+    } else {
+      net::async_write(socket_, net::buffer(*line), std::move(on_done));
+    }
+  }
+
+  void OnWritten(error_code ec, bool done, bool close) {
+    writing_ = false;
+    write_timer_.cancel();
+    if (closed_) return;
+    if (ec) {
+      log::Debug("rest.write", log::Fields().Add("peer", peer_).Add("error", ec.message()));
+      return DoClose();
+    }
+    if (done) {
+      slots_.pop_front();
+      if (close) return DoClose();
+      if (slots_.empty() && peer_done_) return DoClose();
+      UpdateIdleDeadline();
+      DoRead();  // resumes a read paused by the pipelining bound
+    }
+    Pump();
+  }
+
+  void DoClose() {
+    if (closed_) return;
+    closed_ = true;
+    for (auto& s : slots_) {
+      if (s.stream) s.stream->Cancel();
+    }
+    slots_.clear();
+    error_code ec;
+    idle_timer_.cancel();
+    write_timer_.cancel();
+    socket_.shutdown(tcp::socket::shutdown_send, ec);
+    socket_.close(ec);
+  }
+
+  // The router's view of one request: forwards each event to the session's strand.
+  class Exchange final : public ResponseSink {
+   public:
+    Exchange(std::shared_ptr<Session> session, uint64_t id)
+        : session_(std::move(session)), id_(id) {}
+    void OnResponse(HttpResponse response) noexcept override {
+      Post([s = session_, id = id_, r = std::move(response)]() mutable {
+        s->OnResponse(id, std::move(r));
+      });
+    }
+    void OnStreamStarted(std::shared_ptr<StreamCall> stream) noexcept override {
+      Post([s = session_, id = id_, stream = std::move(stream)]() mutable {
+        s->OnStreamStarted(id, std::move(stream));
+      });
+    }
+    void OnStreamMessage(std::string line) noexcept override {
+      Post([s = session_, id = id_, l = std::move(line)]() mutable {
+        s->OnStreamMessage(id, std::move(l));
+      });
+    }
+    void OnStreamEnd(HttpResponse end) noexcept override {
+      Post([s = session_, id = id_, e = std::move(end)]() mutable {
+        s->OnStreamEnd(id, std::move(e));
+      });
+    }
+
+   private:
+    template <typename F>
+    void Post(F&& f) noexcept {
+      try {
+        net::post(session_->socket_.get_executor(), std::forward<F>(f));
+      } catch (const std::exception& e) {
+        log::Error("rest.post", log::Fields().Add("error", e.what()));
+      }
+    }
+    std::shared_ptr<Session> session_;
+    uint64_t id_;
+  };
+
+  tcp::socket socket_;
+  Shared& shared_;
+  std::string peer_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::string_body>> parser_;
+  net::steady_timer idle_timer_;
+  net::steady_timer write_timer_;
+  std::deque<Slot> slots_;
+  uint64_t next_id_ = 1;
+  bool reading_ = false;
+  bool writing_ = false;
+  bool accepting_ = true;   // false after a request without keep-alive
+  bool peer_done_ = false;  // EOF seen or framing lost: read no more
+  bool closed_ = false;
+};
+
+}  // namespace
+
+struct RestServer::Impl {
+  Shared shared;
+  net::io_context ioc;  // destroyed before `shared`: pending handlers release sessions first
+  tcp::acceptor acceptor{net::make_strand(ioc)};
+  net::steady_timer accept_retry{acceptor.get_executor()};
+  std::vector<std::thread> threads;
+  uint16_t port = 0;
+  std::atomic<bool> stopped{false};
+
+  explicit Impl(int threads_hint) : ioc(std::max(1, threads_hint)) {}
+
+  void DoAccept() {
+    acceptor.async_accept(net::make_strand(ioc), [this](error_code ec, tcp::socket socket) {
+      if (!acceptor.is_open() || ec == net::error::operation_aborted) return;
+      if (ec) {  // e.g. EMFILE: retry shortly instead of spinning
+        log::Warn("rest.accept", log::Fields().Add("error", ec.message()));
+        accept_retry.expires_after(std::chrono::milliseconds(100));
+        accept_retry.async_wait([this](error_code wait_ec) {
+          if (!wait_ec) DoAccept();
+        });
+        return;
+      }
+      error_code nodelay_ec;
+      socket.set_option(tcp::no_delay(true), nodelay_ec);
+      std::make_shared<Session>(std::move(socket), shared)->Run();
+      DoAccept();
+    });
+  }
+};
+
+absl::StatusOr<std::unique_ptr<RestServer>> RestServer::Start(RestOptions options) {
+  if (options.channel == nullptr) return absl::InvalidArgumentError("rest: no gRPC channel");
+  if (options.body_limit == 0) return absl::InvalidArgumentError("rest.body_limit: 0 bytes");
+  if (options.read_timeout.count() <= 0) {
+    return absl::InvalidArgumentError("rest.read_timeout: must be positive");
+  }
+  RouterOptions router_options;
+  router_options.channel = options.channel;
+  router_options.openapi_json = options.openapi_json;
+  router_options.static_dir = options.static_dir;
+  auto router = Router::Create(std::move(router_options));
+  if (!router.ok()) return router.status();
+
+  auto impl = std::make_unique<Impl>(options.threads);
+  impl->shared.router = *std::move(router);
+  error_code ec;
+  const auto address = net::ip::make_address(options.listen_address, ec);
+  if (ec) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("rest.listen_address: \"", options.listen_address, "\": ", ec.message()));
+  }
+  const tcp::endpoint endpoint(address, options.port);
+  auto& acc = impl->acceptor;
+  if (acc.open(endpoint.protocol(), ec); !ec)
+    acc.set_option(net::socket_base::reuse_address(true), ec);
+  if (!ec) acc.bind(endpoint, ec);
+  if (!ec) acc.listen(net::socket_base::max_listen_connections, ec);
+  if (ec) {
+    return absl::UnavailableError(absl::StrCat("rest: cannot listen on ", options.listen_address,
+                                               ":", options.port, ": ", ec.message()));
+  }
+  impl->port = acc.local_endpoint(ec).port();
+  impl->shared.options = std::move(options);
+  impl->DoAccept();
+  const int threads = std::max(1, impl->shared.options.threads);
+  for (int i = 0; i < threads; ++i) {
+    impl->threads.emplace_back([ioc = &impl->ioc] {
+      for (;;) {
+        try {
+          ioc->run();
+          return;
+        } catch (const std::exception& e) {  // a handler threw: log, keep serving
+          log::Error("rest.handler_exception", log::Fields().Add("error", e.what()));
+        }
+      }
+    });
+  }
+  log::Info("rest.listening", log::Fields()
+                                  .Add("address", impl->shared.options.listen_address)
+                                  .Add("port", impl->port)
+                                  .Add("routes", impl->shared.router->routes().size()));
+  return std::unique_ptr<RestServer>(new RestServer(std::move(impl)));
+}
+
+RestServer::RestServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+RestServer::~RestServer() { Stop(); }
+
+uint16_t RestServer::port() const { return impl_->port; }
+
+void RestServer::Stop() {
+  if (impl_->stopped.exchange(true)) return;
+  // Cancelled calls complete promptly and only post to their sessions; new requests get 503.
+  impl_->shared.router->CancelAll();
+  impl_->ioc.stop();
+  for (auto& t : impl_->threads) t.join();
+  impl_->threads.clear();
+  impl_->shared.router->WaitIdle(std::chrono::milliseconds::max());
+  // No I/O thread runs now: close the listener and every connection here, then run what the
+  // closing completed so sessions are released.
+  error_code ec;
+  impl_->acceptor.close(ec);
+  impl_->accept_retry.cancel();
+  std::vector<std::shared_ptr<Session>> sessions;
+  {
+    std::lock_guard lock(impl_->shared.sessions_mu);
+    for (auto& [ptr, weak] : impl_->shared.sessions) {
+      if (auto s = weak.lock()) sessions.push_back(std::move(s));
+    }
+  }
+  for (auto& s : sessions) s->CloseNow();
+  sessions.clear();
+  try {
+    impl_->ioc.restart();
+    for (int i = 0; i < 1000 && impl_->ioc.poll() > 0; ++i) {
+    }
+  } catch (const std::exception& e) {
+    log::Error("rest.handler_exception", log::Fields().Add("error", e.what()));
+  }
+  log::Info("rest.stopped", log::Fields().Add("port", impl_->port));
+}
+
+}  // namespace drivegw::rest
