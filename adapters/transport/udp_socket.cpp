@@ -9,6 +9,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstring>
@@ -139,9 +140,11 @@ absl::Status UdpSocket::SendTo(const Endpoint& to, std::span<const uint8_t> byte
 }
 
 absl::StatusOr<std::optional<Datagram>> UdpSocket::Receive(std::chrono::nanoseconds timeout) {
+  // Clamped so that now + timeout cannot overflow (nanoseconds::max() means "a long time").
+  const auto wait = std::clamp(timeout, std::chrono::nanoseconds::zero(),
+                               std::chrono::nanoseconds(std::chrono::hours(24 * 365)));
   const Clock::time_point deadline =
-      Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                         std::max(timeout, std::chrono::nanoseconds::zero()));
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(wait);
   for (;;) {
     if (is_shut_down() || fd_ < 0) {
       return absl::CancelledError(absl::StrCat("udp ", local_.ToString(), ": socket shut down"));

@@ -223,6 +223,17 @@ TEST(UdpSocket, Wake_ReleasesBlockedReceive) {
   EXPECT_FALSE(again->has_value());
 }
 
+TEST(UdpSocket, Wake_ReleasesReceiveWithMaximalTimeout) {
+  UdpSocket s = BindLoopback();
+  auto receiver =
+      std::async(std::launch::async, [&s] { return s.Receive(std::chrono::nanoseconds::max()); });
+  s.Wake();
+  ASSERT_EQ(receiver.wait_for(5s), std::future_status::ready);
+  auto d = receiver.get();
+  ASSERT_TRUE(d.ok()) << d.status();
+  EXPECT_FALSE(d->has_value());
+}
+
 TEST(UdpSocket, Wake_BeforeReceive_NextReceiveReturnsAtOnceOnlyOnce) {
   UdpSocket a = BindLoopback();
   UdpSocket s = BindLoopback();
