@@ -344,8 +344,9 @@ void LinMotUdpDrive::OnReply(const Reply& reply, TimePoint received) noexcept {
     velocity_mm_s_ = demand_velocity_mm_s_ = 0;
   }
 
-  EvaluateTrackersLocked(received);
+  // Status first: a handle that ends on this reply is then republished with this very sample.
   PublishLocked(false);
+  EvaluateTrackersLocked(received);
   cv_.notify_all();
 }
 
