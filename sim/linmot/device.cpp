@@ -325,14 +325,15 @@ void LinMotDevice::Monitor() {
     Raise(mc::kPosLagStandingTooBig);
     return;
   }
-  // Position limits 146Eh/146Fh (0007h/0008h): only with a valid reference (homed), only while
+  // Position limits 146Eh/146Fh (0007h/0008h), checked on the demand position so that the
+  // drive stops before the mechanical end: only with a valid reference (homed) and only while
   // moving further out, so that a drive outside its range can be moved back (decision 604).
   if (!homed_ || sm_.state() == MainState::kHoming) return;
-  const double actual_inc = actual_mm() * kIncPerMm;
+  const double demand_inc = axis_.demand().position * kIncPerMm;
   const double v = axis_.demand().velocity;
-  if (actual_inc < params_.Get(upid::kMinimalPosition) && v < 0) {
+  if (demand_inc < params_.Get(upid::kMinimalPosition) && v < 0) {
     Raise(mc::kMinPosUndershot);
-  } else if (actual_inc > params_.Get(upid::kMaximalPosition) && v > 0) {
+  } else if (demand_inc > params_.Get(upid::kMaximalPosition) && v > 0) {
     Raise(mc::kMaxPosOvershot);
   }
 }
