@@ -1,0 +1,250 @@
+// drivegw-sim: runs simulated drives on real UDP sockets until SIGINT/SIGTERM (commissioning,
+// demos, manual tests of the gateway). Bad flags: message naming the flag on stderr, exit 2.
+#include <signal.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "adapters/core/clock.h"
+#include "adapters/transport/endpoint.h"
+#include "sim/linmot/server.h"
+
+namespace {
+
+using drivegw::SteadyClock;
+using drivegw::sim::linmot::LinMotServer;
+using drivegw::sim::linmot::SimOptions;
+
+constexpr int kUsageError = 2;
+
+constexpr const char* kUsage = R"(usage: drivegw-sim linmot [flags]
+
+Simulated LinMot drive(s) speaking LinUDP V2 on real UDP sockets (linmot-linudp.md, linmot-mc.md).
+
+flags:
+  --host IP              address to listen on (default 127.0.0.1)
+  --port N               drive port; 0 = ephemeral (default 49360)
+  --master-port N        only datagrams from this source port are answered, replies go to it;
+                         0 = answer any source port (default 41136)
+  --count N              N drives on consecutive ports port, port+1, ... (default 1)
+  --name NAME            drive name; with --count, NAME-1, NAME-2, ... (default linmot)
+  --stroke-min MM        mechanical stroke and position limits (default 0)
+  --stroke-max MM        (default 150)
+  --initial-position MM  slider position at power-up (default 10)
+  --home-position MM     where homing (control word bit 11) moves to (default 0)
+  --max-velocity MM_S    motor speed capability (default 4000)
+  --tick-ms MS           physics tick, 0.25 ... 10 (default 1)
+  --hw-test-ms MS        duration of state 5 (default 300)
+  --boot-ms MS           silence after restart 0x30 / Reset 00F0h (default 2000)
+  --reply-payload N      zero-fill replies to N bytes: 14 (observed) or 64 (manual) (default 14)
+  --status-every S       print each drive's state every S seconds (default 0 = never)
+  -h, --help             this text
+)";
+
+struct Flags {
+  std::string family;
+  std::string host = "127.0.0.1";
+  uint16_t port = 49360;
+  int count = 1;
+  double status_every_s = 0;
+  SimOptions sim;
+};
+
+[[noreturn]] void UsageError(const std::string& message) {
+  std::cerr << "drivegw-sim: " << message << "\n(drivegw-sim --help for the flags)\n";
+  std::exit(kUsageError);
+}
+
+double ParseDouble(const std::string& flag, const std::string& v) {
+  double d = 0;
+  if (!absl::SimpleAtod(v, &d) || !std::isfinite(d)) {
+    UsageError(absl::StrCat(flag, ": '", v, "' is not a number"));
+  }
+  return d;
+}
+
+int64_t ParseInt(const std::string& flag, const std::string& v, int64_t lo, int64_t hi) {
+  int64_t n = 0;
+  if (!absl::SimpleAtoi(v, &n) || n < lo || n > hi) {
+    UsageError(absl::StrCat(flag, ": '", v, "' is not an integer in [", lo, ", ", hi, "]"));
+  }
+  return n;
+}
+
+drivegw::Duration Millis(const std::string& flag, const std::string& v, double lo, double hi) {
+  const double ms = ParseDouble(flag, v);
+  if (ms < lo || ms > hi)
+    UsageError(absl::StrCat(flag, ": ", ms, " is outside [", lo, ", ", hi, "]"));
+  return std::chrono::duration_cast<drivegw::Duration>(
+      std::chrono::duration<double, std::milli>(ms));
+}
+
+Flags ParseFlags(int argc, char** argv) {
+  Flags f;
+  std::vector<std::string> args(argv + 1, argv + argc);
+  for (size_t i = 0; i < args.size(); ++i) {
+    std::string arg = args[i];
+    if (arg == "-h" || arg == "--help") {
+      std::cout << kUsage;
+      std::exit(0);
+    }
+    if (arg.rfind("--", 0) != 0) {
+      if (!f.family.empty()) UsageError(absl::StrCat("unexpected argument '", arg, "'"));
+      f.family = arg;
+      continue;
+    }
+    std::string value;
+    if (const size_t eq = arg.find('='); eq != std::string::npos) {
+      value = arg.substr(eq + 1);
+      arg = arg.substr(0, eq);
+    } else {
+      if (i + 1 >= args.size()) UsageError(absl::StrCat(arg, ": missing value"));
+      value = args[++i];
+    }
+    if (arg == "--host") {
+      f.host = value;
+    } else if (arg == "--port") {
+      f.port = static_cast<uint16_t>(ParseInt(arg, value, 0, 65535));
+    } else if (arg == "--master-port") {
+      f.sim.master_port = static_cast<uint16_t>(ParseInt(arg, value, 0, 65535));
+    } else if (arg == "--count") {
+      f.count = static_cast<int>(ParseInt(arg, value, 1, 256));
+    } else if (arg == "--name") {
+      if (value.empty()) UsageError("--name: empty");
+      f.sim.name = value;
+    } else if (arg == "--stroke-min") {
+      f.sim.stroke_min_mm = ParseDouble(arg, value);
+    } else if (arg == "--stroke-max") {
+      f.sim.stroke_max_mm = ParseDouble(arg, value);
+    } else if (arg == "--initial-position") {
+      f.sim.initial_position_mm = ParseDouble(arg, value);
+    } else if (arg == "--home-position") {
+      f.sim.home_position_mm = ParseDouble(arg, value);
+    } else if (arg == "--max-velocity") {
+      f.sim.max_velocity_mm_s = ParseDouble(arg, value);
+    } else if (arg == "--tick-ms") {
+      f.sim.tick = Millis(arg, value, 0.25, 10);
+    } else if (arg == "--hw-test-ms") {
+      f.sim.hw_test_time = Millis(arg, value, 0, 60'000);
+    } else if (arg == "--boot-ms") {
+      f.sim.boot_time = Millis(arg, value, 0, 600'000);
+    } else if (arg == "--reply-payload") {
+      f.sim.min_reply_payload = static_cast<size_t>(ParseInt(arg, value, 0, 1472));
+    } else if (arg == "--status-every") {
+      f.status_every_s = ParseDouble(arg, value);
+      if (f.status_every_s < 0) UsageError("--status-every: must be >= 0");
+    } else {
+      UsageError(absl::StrCat("unknown flag '", arg, "'"));
+    }
+  }
+  if (f.family.empty()) UsageError("missing the drive family (supported: linmot)");
+  if (f.family != "linmot")
+    UsageError(absl::StrCat("unknown family '", f.family, "' (supported: linmot)"));
+  if (f.port != 0 && f.port + f.count - 1 > 65535) {
+    UsageError(absl::StrCat("--count: ", f.count, " drives from port ", f.port, " exceed 65535"));
+  }
+  auto endpoint = drivegw::transport::Endpoint::Parse(f.host, f.port);
+  if (!endpoint.ok()) UsageError(absl::StrCat("--host: ", endpoint.status().message()));
+  f.sim.bind = *endpoint;
+  return f;
+}
+
+// "sim_options.stroke_max_mm: ..." -> "--stroke-max: ..." so the message names the flag.
+std::string FlagMessage(const std::string& message) {
+  static const std::map<std::string, std::string> kFlags = {
+      {"stroke_min_mm", "--stroke-min"},
+      {"stroke_max_mm", "--stroke-max"},
+      {"initial_position_mm", "--initial-position"},
+      {"home_position_mm", "--home-position"},
+      {"max_velocity_mm_s", "--max-velocity"},
+      {"tick_ms", "--tick-ms"},
+      {"min_reply_payload", "--reply-payload"},
+  };
+  const std::string prefix = "sim_options.";
+  if (message.rfind(prefix, 0) != 0) return message;
+  const size_t colon = message.find(':');
+  const std::string field = message.substr(prefix.size(), colon - prefix.size());
+  auto it = kFlags.find(field);
+  return it == kFlags.end() ? message : it->second + message.substr(colon);
+}
+
+void PrintStatus(const std::vector<std::unique_ptr<LinMotServer>>& servers) {
+  for (const auto& s : servers) {
+    const auto snap = s->Snapshot();
+    const auto& d = snap.device;
+    std::cout << absl::StrFormat(
+        "%s state=%u sv=0x%04X sw=0x%04X err=0x%04X pos=%.4f mm demand=%.4f mm homed=%d "
+        "rx=%u tx=%u dropped_port=%u malformed=%u\n",
+        s->options().name, d.main_state, d.state_var, d.status_word, d.error_code,
+        d.actual_position_mm, d.demand_position_mm, d.homed ? 1 : 0, snap.server.datagrams_received,
+        snap.server.replies_sent, snap.server.dropped_wrong_port, snap.server.malformed);
+  }
+  std::cout.flush();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Flags flags = ParseFlags(argc, argv);
+  if (auto s = drivegw::sim::linmot::ValidateOptions(flags.sim); !s.ok()) {
+    UsageError(FlagMessage(std::string(s.message())));
+  }
+
+  // Signals are taken synchronously by sigwait below; every thread inherits the blocked mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  std::vector<std::unique_ptr<LinMotServer>> servers;
+  for (int i = 0; i < flags.count; ++i) {
+    SimOptions o = flags.sim;
+    if (flags.count > 1) o.name = absl::StrCat(flags.sim.name, "-", i + 1);
+    if (flags.port != 0) o.bind.port = static_cast<uint16_t>(flags.port + i);
+    auto server = LinMotServer::Start(o, SteadyClock::Instance());
+    if (!server.ok()) {
+      std::cerr << "drivegw-sim: " << server.status().message() << "\n";
+      for (auto& s : servers) s->Stop();
+      return 1;
+    }
+    std::cout << absl::StrFormat(
+        "linmot %s listening on %s (master port %s)\n", o.name, (*server)->endpoint().ToString(),
+        o.master_port == 0 ? std::string("any") : std::to_string(o.master_port));
+    servers.push_back(std::move(*server));
+  }
+  std::cout.flush();
+
+  while (true) {
+    int sig = 0;
+    if (flags.status_every_s > 0) {
+      timespec timeout{};
+      timeout.tv_sec = static_cast<time_t>(flags.status_every_s);
+      timeout.tv_nsec = static_cast<long>((flags.status_every_s - timeout.tv_sec) * 1e9);
+      sig = sigtimedwait(&signals, nullptr, &timeout);
+      if (sig < 0) {
+        if (errno == EAGAIN) PrintStatus(servers);
+        continue;
+      }
+    } else if (sigwait(&signals, &sig) != 0) {
+      continue;
+    }
+    break;
+  }
+  for (auto& s : servers) s->Stop();
+  std::cout << "drivegw-sim: stopped\n";
+  return 0;
+}
