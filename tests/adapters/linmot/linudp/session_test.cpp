@@ -194,8 +194,8 @@ PeerOptions Options(const ScriptedDrive& drive, std::chrono::milliseconds cycle 
 
 TEST(Session, Exchange_RepliesReachThePeerAndCount) {
   ScriptedDrive drive(0x0805);
-  auto session = OpenLoopback();
   TestPeer peer;
+  auto session = OpenLoopback();
   auto id = session->Register(Options(drive), &peer);
   ASSERT_TRUE(id.ok()) << id.status();
   ASSERT_TRUE(peer.WaitReplies(10));
@@ -214,8 +214,8 @@ TEST(Session, Exchange_RepliesReachThePeerAndCount) {
 
 TEST(Session, CycleTime_TelegramsNotFasterThanTheCycle) {
   ScriptedDrive drive;
-  auto session = OpenLoopback();
   TestPeer peer;
+  auto session = OpenLoopback();
   const auto start = std::chrono::steady_clock::now();
   auto id = session->Register(Options(drive, 20ms), &peer);
   ASSERT_TRUE(id.ok());
@@ -228,8 +228,8 @@ TEST(Session, CycleTime_TelegramsNotFasterThanTheCycle) {
 
 TEST(Session, TwoDrivesOneSocket_RoutedBySourceEndpoint) {
   ScriptedDrive a(0x0801), b(0x0802);
-  auto session = OpenLoopback();
   TestPeer pa, pb;
+  auto session = OpenLoopback();
   PeerOptions oa = Options(a), ob = Options(b);
   ob.name = "x2";
   auto ia = session->Register(oa, &pa);
@@ -245,8 +245,8 @@ TEST(Session, TwoDrivesOneSocket_RoutedBySourceEndpoint) {
 
 TEST(Session, Register_SameRemoteTwice_AlreadyExists) {
   ScriptedDrive drive;
-  auto session = OpenLoopback();
   TestPeer p1, p2;
+  auto session = OpenLoopback();
   ASSERT_TRUE(session->Register(Options(drive), &p1).ok());
   auto second = session->Register(Options(drive), &p2);
   EXPECT_EQ(second.status().code(), absl::StatusCode::kAlreadyExists);
@@ -254,8 +254,8 @@ TEST(Session, Register_SameRemoteTwice_AlreadyExists) {
 
 TEST(Session, Register_BadOptions_InvalidArgumentNamingField) {
   ScriptedDrive drive;
-  auto session = OpenLoopback();
   TestPeer p;
+  auto session = OpenLoopback();
   PeerOptions o = Options(drive);
   o.cycle = 0ms;
   auto r = session->Register(o, &p);
@@ -267,8 +267,8 @@ TEST(Session, Register_BadOptions_InvalidArgumentNamingField) {
 }
 
 TEST(Session, MalformedReplies_CountedDroppedAndSessionSurvives) {
+  std::atomic<int> bad{6};  // outlives the drive's thread
   ScriptedDrive drive;
-  std::atomic<int> bad{6};
   drive.SetResponder([&](const Request& r) {
     if (bad.fetch_sub(1) > 0) {
       // Alternately: shorter than its own layout and lacking an asked-for block.
@@ -280,8 +280,8 @@ TEST(Session, MalformedReplies_CountedDroppedAndSessionSurvives) {
     }
     return std::vector<Bytes>{ScriptedDrive::StandardReply(r, 0x0800)};
   });
-  auto session = OpenLoopback();
   TestPeer peer;
+  auto session = OpenLoopback();
   PeerOptions o = Options(drive);
   o.lost_after_timeouts = 100;  // malformed replies end in time-outs; keep the link up here
   auto id = session->Register(o, &peer);
@@ -303,8 +303,8 @@ TEST(Session, HeaderEchoMismatch_CountedButAccepted) {
     reply.state_var = 0x0800;
     return std::vector<Bytes>{EncodeReply(reply)};
   });
-  auto session = OpenLoopback();
   TestPeer peer;
+  auto session = OpenLoopback();
   auto id = session->Register(Options(drive), &peer);
   ASSERT_TRUE(peer.WaitReplies(3));
   const ExchangeCounters c = *session->peer_counters(*id);
@@ -315,8 +315,8 @@ TEST(Session, HeaderEchoMismatch_CountedButAccepted) {
 TEST(Session, UnknownSource_CountedAndDropped) {
   ScriptedDrive drive;
   ScriptedDrive stranger;
-  auto session = OpenLoopback();
   TestPeer peer;
+  auto session = OpenLoopback();
   auto id = session->Register(Options(drive), &peer);
   ASSERT_TRUE(peer.WaitReplies(2));
   Request poll;
@@ -337,8 +337,8 @@ TEST(Session, DuplicateReply_SecondCopyCountedLate) {
     Bytes b = ScriptedDrive::StandardReply(r, 0x0800);
     return std::vector<Bytes>{b, b};
   });
-  auto session = OpenLoopback();
   TestPeer peer;
+  auto session = OpenLoopback();
   auto id = session->Register(Options(drive, 20ms), &peer);
   ASSERT_TRUE(peer.WaitReplies(5));
   // the copy arrives while no request is outstanding (the next leaves a cycle later).
@@ -346,14 +346,14 @@ TEST(Session, DuplicateReply_SecondCopyCountedLate) {
 }
 
 TEST(Session, LinkLoss_OfflineAfterConsecutiveTimeouts_ThenRecovers) {
+  std::atomic<bool> answering{true};  // outlives the drive's thread
   ScriptedDrive drive;
-  std::atomic<bool> answering{true};
   drive.SetResponder([&](const Request& r) {
     if (!answering) return std::vector<Bytes>{};
     return std::vector<Bytes>{ScriptedDrive::StandardReply(r, 0x0800)};
   });
-  auto session = OpenLoopback();
   TestPeer peer;
+  auto session = OpenLoopback();
   auto id = session->Register(Options(drive), &peer);
   ASSERT_TRUE(peer.WaitLink(LinkState::kOnline));
   answering = false;
@@ -369,8 +369,8 @@ TEST(Session, LinkLoss_OfflineAfterConsecutiveTimeouts_ThenRecovers) {
 TEST(Session, SilentFromStart_GoesOfflineFromUnknown) {
   ScriptedDrive drive;
   drive.SetResponder([](const Request&) { return std::vector<Bytes>{}; });
-  auto session = OpenLoopback();
   TestPeer peer;
+  auto session = OpenLoopback();
   auto id = session->Register(Options(drive), &peer);
   ASSERT_TRUE(peer.WaitLink(LinkState::kOffline));
   EXPECT_EQ(peer.replies(), 0u);
@@ -378,16 +378,14 @@ TEST(Session, SilentFromStart_GoesOfflineFromUnknown) {
 }
 
 TEST(Session, Unregister_NoCallbacksAfterwards) {
-  ScriptedDrive drive;
+  ScriptedDrive drive, drive2;
+  TestPeer peer, other;
   auto session = OpenLoopback();
-  TestPeer peer;
   auto id = session->Register(Options(drive), &peer);
   ASSERT_TRUE(peer.WaitReplies(3));
   session->Unregister(*id);
   const size_t callbacks = peer.callbacks();
   // A second registration's traffic proves the loop kept running meanwhile.
-  TestPeer other;
-  ScriptedDrive drive2;
   ASSERT_TRUE(session->Register(Options(drive2), &other).ok());
   ASSERT_TRUE(other.WaitReplies(5));
   EXPECT_EQ(peer.callbacks(), callbacks);
@@ -397,8 +395,8 @@ TEST(Session, Unregister_NoCallbacksAfterwards) {
 TEST(Session, Stop_WakesAndJoinsPromptly) {
   ScriptedDrive drive;
   drive.SetResponder([](const Request&) { return std::vector<Bytes>{}; });
-  auto session = OpenLoopback();
   TestPeer peer;
+  auto session = OpenLoopback();
   PeerOptions o = Options(drive, 1000ms);
   o.reply_timeout = 10s;  // the loop would otherwise sleep for a long time
   ASSERT_TRUE(session->Register(o, &peer).ok());
