@@ -114,9 +114,30 @@ void LinMotDevice::Advance(Duration dt) {
   if (dt <= Duration{0}) return;
   remainder_ += dt;
   while (remainder_ >= options_.tick) {
+    if (Quiescent()) {
+      // Nothing can change until the next telegram or hook: skip the idle ticks in one step
+      // (an idle simulator must not spend seconds catching up after an hour without a master).
+      const auto n = remainder_ / options_.tick;
+      sim_time_ += n * options_.tick;
+      remainder_ -= n * options_.tick;
+      break;
+    }
     remainder_ -= options_.tick;
     Tick();
   }
+}
+
+bool LinMotDevice::Quiescent() const {
+  if (booting_) return false;
+  if (mc_stopped_) return true;
+  const MainState s = sm_.state();
+  if (s == MainState::kHwTests || s == MainState::kErrorBehaviourQuickStop || sm_.off3_stopping()) {
+    return false;
+  }
+  // Standing still with the slider exactly on the demand: no lag, no event, no limit can fire.
+  return !homing_ && !after_actual_ && !axis_.motion_active() && axis_.demand().velocity == 0 &&
+         axis_.actual().position == axis_.demand().position &&
+         slider_mm_ == axis_.physical_position() && slider_velocity_ == 0;
 }
 
 uint64_t LinMotDevice::operating_ms() const {

@@ -76,6 +76,7 @@ class LinMotDevice {
   void PowerUp();
   void StartBoot();
   void Tick();
+  bool Quiescent() const;
   SmInputs Inputs() const;
   void Apply(const SmEffects& fx);
   void ApplyControlWord(uint16_t control_word);
