@@ -695,32 +695,35 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
       return;
     }
 
-    // The most specific matching template wins; when it belongs to another method, 405.
+    // The most specific matching template wins; when it belongs to another method, 405
+    // (Allow lists the methods whose templates match at that rank).
     const Route* best = nullptr;
     std::vector<PathBinding> best_bindings;
     int best_score = -1;
-    int best_other_score = -1;
-    std::set<std::string> allowed;
+    std::map<std::string, int> method_scores;
     for (const Route& route : routes_) {
       auto bindings = route.path.Match(path);
       if (!bindings) continue;
       const int score = route.path.Specificity();
-      allowed.insert(route.http_method);
-      if (route.http_method == method) {
-        if (score > best_score) {
-          best = &route;
-          best_score = score;
-          best_bindings = *std::move(bindings);
-        }
-      } else {
-        best_other_score = std::max(best_other_score, score);
+      int& top = method_scores.try_emplace(route.http_method, -1).first->second;
+      top = std::max(top, score);
+      if (route.http_method == method && score > best_score) {
+        best = &route;
+        best_score = score;
+        best_bindings = *std::move(bindings);
       }
     }
-    if (best != nullptr && best_score >= best_other_score) {
+    int top_score = -1;
+    for (const auto& [m, score] : method_scores) top_score = std::max(top_score, score);
+    if (best != nullptr && best_score == top_score) {
       HandleApi(*best, std::move(best_bindings), query, request, sink);
       return;
     }
-    if (!allowed.empty()) {
+    if (!method_scores.empty()) {
+      std::vector<std::string> allowed;
+      for (const auto& [m, score] : method_scores) {
+        if (score == top_score) allowed.push_back(m);
+      }
       const std::string list = absl::StrJoin(allowed, ", ");
       auto r = ErrorResponse(
           405, kUnimplemented,

@@ -2,6 +2,7 @@
 // NDJSON streams, deadlines) in front of the socketless router. The only Beast TU of dgw_rest.
 #include "server/rest/server.h"
 
+#include <array>
 #include <atomic>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
@@ -34,6 +35,8 @@ using beast::error_code;
 
 constexpr size_t kMaxPipelined = 8;       // requests read ahead of their responses
 constexpr uint32_t kHeaderLimit = 16384;  // request line + headers
+constexpr auto kLingerTime = std::chrono::seconds(1);
+constexpr size_t kLingerBytes = 1 << 20;
 constexpr int kInvalidArgument = 3;
 constexpr int kResourceExhausted = 8;
 
@@ -95,7 +98,10 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   // For RestServer::Stop once the I/O threads are joined (no other thread touches us then).
-  void CloseNow() { DoClose(); }
+  void CloseNow() {
+    DoClose();
+    CloseSocket();  // also ends a lingering close
+  }
 
   // --- router events, on the strand (posted by Exchange) ---
   void OnResponse(uint64_t id, HttpResponse response) {
@@ -360,7 +366,7 @@ class Session : public std::enable_shared_from_this<Session> {
     }
     if (done) {
       slots_.pop_front();
-      if (close) return DoClose();
+      if (close) return LingerClose();
       if (slots_.empty() && peer_done_) return DoClose();
       UpdateIdleDeadline();
       DoRead();  // resumes a read paused by the pipelining bound
@@ -370,15 +376,49 @@ class Session : public std::enable_shared_from_this<Session> {
 
   void DoClose() {
     if (closed_) return;
+    DoCloseState();
+    error_code ec;
+    socket_.shutdown(tcp::socket::shutdown_send, ec);
+    CloseSocket();
+  }
+
+  void DoCloseState() {
     closed_ = true;
     for (auto& s : slots_) {
       if (s.stream) s.stream->Cancel();
     }
     slots_.clear();
-    error_code ec;
     idle_timer_.cancel();
     write_timer_.cancel();
+  }
+
+  // Closes after a "Connection: close" response without a reset: the client may still be
+  // sending (e.g. the body of a 413), and unread data at close() makes the kernel send RST,
+  // which can destroy the response in flight. So: FIN, then read and drop for a short while.
+  void LingerClose() {
+    if (closed_) return;
+    error_code ec;
+    socket_.cancel(ec);  // a pending read-ahead ends (OnRead sees closed_)
+    DoCloseState();
     socket_.shutdown(tcp::socket::shutdown_send, ec);
+    write_timer_.expires_after(kLingerTime);
+    write_timer_.async_wait([self = shared_from_this()](error_code wait_ec) {
+      if (!wait_ec) self->CloseSocket();
+    });
+    Drain(std::make_shared<std::array<char, 4096>>(), 0);
+  }
+
+  void Drain(std::shared_ptr<std::array<char, 4096>> buf, size_t total) {
+    socket_.async_read_some(net::buffer(*buf),
+                            [self = shared_from_this(), buf, total](error_code ec, size_t n) {
+                              if (ec || total + n > kLingerBytes) return self->CloseSocket();
+                              self->Drain(buf, total + n);
+                            });
+  }
+
+  void CloseSocket() {
+    error_code ec;
+    write_timer_.cancel();
     socket_.close(ec);
   }
 
