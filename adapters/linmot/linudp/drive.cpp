@@ -557,12 +557,18 @@ void LinMotUdpDrive::PublishLocked(bool force) {
     return;
   }
   if (!published_ || published_->state != s.state) {
-    log::Info("drive_state", log::Fields()
-                                 .Add("drive", name_)
-                                 .Add("family", "linmot")
-                                 .Add("from", published_ ? ToString(published_->state) : "-")
-                                 .Add("to", ToString(s.state))
-                                 .Add("main_state", s.native.main_state));
+    // Operational churn (ENABLED <-> MOVING <-> HOMING) is per command: debug; the rest is info.
+    auto operational = [](DriveState d) {
+      return d == DriveState::kEnabled || d == DriveState::kMoving || d == DriveState::kHoming;
+    };
+    const bool churn = published_ && operational(published_->state) && operational(s.state);
+    (churn ? log::Debug : log::Info)(
+        "drive_state", log::Fields()
+                           .Add("drive", name_)
+                           .Add("family", "linmot")
+                           .Add("from", published_ ? ToString(published_->state) : "-")
+                           .Add("to", ToString(s.state))
+                           .Add("main_state", s.native.main_state));
   }
   published_ = s;
   published_at_ = now;

@@ -48,8 +48,7 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Open(const transport::Endpoint
   if (!socket.ok()) return socket.status();
   std::shared_ptr<Session> session(new Session(std::move(*socket), clock));
   session->thread_ = std::thread([s = session.get()] { s->Run(); });
-  log::Info("linudp_session",
-            log::Fields().Add("local", session->local_.ToString()).Add("event", "open"));
+  log::Info("linudp_session_open", log::Fields().Add("local", session->local_.ToString()));
   return session;
 }
 
@@ -68,8 +67,7 @@ void Session::Stop() {
   socket_.Shutdown();  // releases a blocked Receive at once
   if (thread_.joinable()) {
     thread_.join();
-    log::Info("linudp_session",
-              log::Fields().Add("local", local_.ToString()).Add("event", "closed"));
+    log::Info("linudp_session_closed", log::Fields().Add("local", local_.ToString()));
   }
 }
 
@@ -111,11 +109,10 @@ absl::StatusOr<PeerId> Session::Register(const PeerOptions& options, SessionPeer
     by_remote_.emplace(options.remote, id);
   }
   socket_.Wake();  // the loop recomputes its schedule and sends the first telegram
-  log::Info("linudp_peer", log::Fields()
-                               .Add("drive", options.name)
-                               .Add("local", local_.ToString())
-                               .Add("remote", options.remote.ToString())
-                               .Add("event", "registered"));
+  log::Info("linudp_peer_registered", log::Fields()
+                                          .Add("drive", options.name)
+                                          .Add("local", local_.ToString())
+                                          .Add("remote", options.remote.ToString()));
   return id;
 }
 
@@ -125,10 +122,8 @@ void Session::Unregister(PeerId id) {
   if (it == peers_.end()) return;
   Add(counters_.total, it->second.counters);
   by_remote_.erase(it->second.options.remote);
-  log::Info("linudp_peer", log::Fields()
-                               .Add("drive", it->second.options.name)
-                               .Add("local", local_.ToString())
-                               .Add("event", "unregistered"));
+  log::Info("linudp_peer_unregistered",
+            log::Fields().Add("drive", it->second.options.name).Add("local", local_.ToString()));
   peers_.erase(it);
 }
 
