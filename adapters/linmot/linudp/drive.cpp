@@ -353,6 +353,7 @@ void LinMotUdpDrive::OnReply(const Reply& reply, TimePoint received) noexcept {
 void LinMotUdpDrive::OnTimeout() noexcept {
   std::lock_guard lock(mu_);
   if (!active_) return;
+  ++timeouts_;
   // Only deadlines advance without a reply; state-based decisions need a fresh sample.
   const TimePoint now = clock_.Now();
   if (motion_) {
@@ -587,11 +588,12 @@ void LinMotUdpDrive::SetControlWordLocked(uint16_t cw) {
 
 template <typename Pred>
 LinMotUdpDrive::Wait LinMotUdpDrive::WaitLocked(std::unique_lock<std::mutex>& lock,
-                                                TimePoint deadline, Pred reached) {
+                                                TimePoint deadline, Pred reached,
+                                                bool tolerate_offline) {
   for (;;) {
     if (!active_) return Wait::kInactive;
     if (reached()) return Wait::kReached;
-    if (link_ == LinkState::kOffline) return Wait::kOffline;
+    if (link_ == LinkState::kOffline && !tolerate_offline) return Wait::kOffline;
     const TimePoint now = clock_.Now();
     if (now >= deadline) return Wait::kDeadline;
     cv_.wait_for(lock, deadline - now);
@@ -1005,6 +1007,14 @@ absl::StatusOr<RtcReply> LinMotUdpDrive::RtcTransact(uint8_t command_id, uint16_
   std::unique_lock lock(mu_);
   const TimePoint deadline = clock_.Now() + timeout;
   DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, what.c_str()));
+  return RtcTransactLocked(lock, command_id, word2, word3, word4, deadline, timeout, what);
+}
+
+absl::StatusOr<RtcReply> LinMotUdpDrive::RtcTransactLocked(std::unique_lock<std::mutex>& lock,
+                                                           uint8_t command_id, uint16_t word2,
+                                                           uint16_t word3, uint16_t word4,
+                                                           TimePoint deadline, Duration timeout,
+                                                           const std::string& what) {
   // the count follows the echo of the newest reply (1..15 ring, never 0).
   const uint8_t echo = sample_.rtc ? (sample_.rtc->count & 0x0F) : 0;
   const uint8_t count = mc::NextCount(echo);
@@ -1030,6 +1040,50 @@ absl::StatusOr<RtcReply> LinMotUdpDrive::RtcTransact(uint8_t command_id, uint16_
                         .Add("command", absl::StrFormat("0x%02X", command_id))
                         .Add("count", static_cast<int>(count))
                         .Add("status", absl::StrFormat("0x%02X", sample_.rtc->status)));
+  return *sample_.rtc;
+}
+
+absl::StatusOr<RtcReply> LinMotUdpDrive::RtcRestart(Duration timeout) {
+  const std::string what = "RTC command 0x30 (Restart Drive)";
+  std::lock_guard rtc(rtc_mu_);
+  std::unique_lock lock(mu_);
+  const TimePoint deadline = clock_.Now() + timeout;
+  DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, what.c_str()));
+  // 0x30 goes with count 0; if the echo is 0 already, a NOP with count 1 first makes 0 a
+  // change.
+  if (!sample_.rtc || (sample_.rtc->count & 0x0F) == 0) {
+    DGW_RETURN_IF_ERROR(RtcTransactLocked(lock, static_cast<uint8_t>(RtcCommand::kNoOperation), 0,
+                                          0, 0, deadline, timeout, what + ": NOP before restart")
+                            .status());
+  }
+  rtc_block_ = RtcRequest{0, static_cast<uint8_t>(RtcCommand::kRestartDrive), 0, 0, 0};
+  const uint64_t gen = ++rtc_generation_;
+  const uint64_t timeouts_before = timeouts_;
+  std::optional<uint64_t> replies_at_silence;
+  log::Info("drive_restart", log::Fields().Add("drive", name_).Add("endpoint", endpoint()));
+  // complete on the first reply with echo 0 and status 0 that follows at least one
+  // unanswered telegram. The link goes OFFLINE meanwhile (the drive is really silent), so the
+  // wait tolerates it.
+  const Wait w = WaitLocked(
+      lock, deadline,
+      [&] {
+        if (!replies_at_silence && timeouts_ > timeouts_before) replies_at_silence = replies_;
+        return replies_at_silence && replies_ > *replies_at_silence && rtc_answered_ >= gen &&
+               sample_.rtc && (sample_.rtc->count & 0x0F) == 0 &&
+               sample_.rtc->status == kRtcStatusDone;
+      },
+      /*tolerate_offline=*/true);
+  rtc_block_.reset();
+  if (w != Wait::kReached) {
+    return WaitFailure(
+        w, what.c_str(),
+        absl::StrCat(replies_at_silence ? "the drive went silent but did not come back"
+                                        : "the drive never went silent",
+                     " within ",
+                     std::chrono::duration_cast<std::chrono::milliseconds>(timeout).count(),
+                     " ms (linmot-linudp.md A-11)"));
+  }
+  log::Info("drive_restarted", log::Fields().Add("drive", name_).Add("state", StateTextLocked()));
   return *sample_.rtc;
 }
 
@@ -1107,17 +1161,13 @@ absl::Status LinMotUdpDrive::WriteParameter(const ParameterRef& ref, int64_t val
 absl::StatusOr<NativeReply> LinMotUdpDrive::SendNative(const NativeRequest& req) {
   DGW_RETURN_IF_ERROR(RequireActive("SendNative"));
   if (const auto* rtc = std::get_if<LinMotRtcRequest>(&req)) {
-    if (rtc->command_id == static_cast<uint8_t>(RtcCommand::kRestartDrive)) {
-      // A-11 needs count 0 and a silent phase without link supervision: not offered here.
-      return absl::UnimplementedError(
-          absl::StrCat("drive '", name_,
-                       "': send_native.rtc.command_id: 0x30 (Restart Drive) is not "
-                       "supported through SendNative (linmot-linudp.md A-11)"));
-    }
     const std::string what = absl::StrFormat("RTC command 0x%02X", rtc->command_id);
-    DGW_ASSIGN_OR_RETURN(const RtcReply r,
-                         RtcTransact(rtc->command_id, rtc->word2, rtc->word3, rtc->word4,
-                                     RtcTimeout(rtc->command_id, config().timeouts.request), what));
+    const Duration timeout = RtcTimeout(rtc->command_id, config().timeouts.request);
+    DGW_ASSIGN_OR_RETURN(
+        const RtcReply r,
+        rtc->command_id == static_cast<uint8_t>(RtcCommand::kRestartDrive)
+            ? RtcRestart(timeout)
+            : RtcTransact(rtc->command_id, rtc->word2, rtc->word3, rtc->word4, timeout, what));
     NativeReply out;
     out.status = r.status;
     out.word2 = r.word2;

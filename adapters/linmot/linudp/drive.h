@@ -55,6 +55,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   // count handshake like Move; the reply's command_id is the handle id, word2 = state var,
   // word3 = status word, word4 = warn word at acceptance. LinMotRtcRequest: one RTC transaction
   // status and words 2-4 as the drive answered, OK even for status >= 0xC0.
+  // Restart Drive (0x30) follows A-11 and returns once the drive answers again after booting.
   absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) override;
 
   // Diagnostics for the dashboard; nullopt while not ACTIVE.
@@ -124,7 +125,8 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   // Waits on cv_ until `reached()` (evaluated after each reply), the deadline, link loss (once
   // the link was up) or deactivation.
   template <typename Pred>
-  Wait WaitLocked(std::unique_lock<std::mutex>& lock, TimePoint deadline, Pred reached);
+  Wait WaitLocked(std::unique_lock<std::mutex>& lock, TimePoint deadline, Pred reached,
+                  bool tolerate_offline = false);
   // Waits until a reply answered a telegram carrying the current control word.
   Wait WaitControlWordLocked(std::unique_lock<std::mutex>& lock, TimePoint deadline);
   absl::Status WaitOnlineLocked(std::unique_lock<std::mutex>& lock, TimePoint deadline,
@@ -143,6 +145,12 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   // One RTC transaction; returns the final reply (status may be >= 0xC0).
   absl::StatusOr<RtcReply> RtcTransact(uint8_t command_id, uint16_t word2, uint16_t word3,
                                        uint16_t word4, Duration timeout, const std::string& what);
+  absl::StatusOr<RtcReply> RtcTransactLocked(std::unique_lock<std::mutex>& lock, uint8_t command_id,
+                                             uint16_t word2, uint16_t word3, uint16_t word4,
+                                             TimePoint deadline, Duration timeout,
+                                             const std::string& what);
+  // Restart Drive 0x30 with the A-11 handshake: count 0, silence, first reply with echo 0.
+  absl::StatusOr<RtcReply> RtcRestart(Duration timeout);
 
   const Clock& clock_;
   const std::string name_;
@@ -161,6 +169,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   double velocity_mm_s_ = 0;            // from actual positions (decision 703)
   double demand_velocity_mm_s_ = 0;     // from demand positions, for planning
   uint64_t replies_ = 0;
+  uint64_t timeouts_ = 0;
 
   // Outbound state: what every telegram carries (linmot-linudp.md §3).
   std::optional<uint16_t> control_word_;  // unset: no control word block (linudp §6.8)

@@ -443,6 +443,33 @@ TEST_F(LinMotUdpDriveBusyRtcTest, BusyStatus_ResentUntilDone) {
   EXPECT_EQ(*drive_->ReadParameter({sim::linmot::upid::kPredefVelocity, false}), 4242);
 }
 
+class LinMotUdpDriveRestartTest : public LinMotUdpDriveTest {
+ protected:
+  void SetUp() override {
+    SimOptions o;
+    o.boot_time = 300ms;
+    Start(o);
+  }
+};
+
+TEST_F(LinMotUdpDriveRestartTest, NativeRestart_A11_ReturnsAfterRebootAndDriveUsable) {
+  EnableOrDie();
+  auto r = drive_->SendNative(LinMotRtcRequest{0x30, 0, 0, 0});
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->status, 0u);
+  const auto sim = Sim();
+  EXPECT_EQ(sim.boots, 1u);
+  EXPECT_EQ(sim.rtc_count, 0u);
+  // Rebooted: power-up state again, the anti-restart lock included (the gateway still sends
+  // 0x003F), and the next RTC command works with count 1.
+  const DriveStatus s =
+      WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
+  EXPECT_LE(s.native.main_state, 2u);
+  EXPECT_TRUE(drive_->ReadParameter({sim::linmot::upid::kPredefVelocity, false}).ok());
+  EnableOrDie();
+  EXPECT_EQ(WaitFinal(MoveOrDie(MoveAbsolute{20, 500, 5000, 0}).id).state, CommandState::kDone);
+}
+
 TEST(CreateLinMotUdpDrive, MissingOrBadConfig_InvalidArgumentNamingField) {
   DriveConfig c;
   c.name = "x9";
