@@ -19,6 +19,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "adapters/core/clock.h"
+#include "adapters/linmot/mc/motion_command.h"
 #include "adapters/transport/endpoint.h"
 #include "sim/linmot/server.h"
 
@@ -49,6 +50,7 @@ flags:
   --tick-ms MS           physics tick, 0.25 ... 10 (default 1)
   --hw-test-ms MS        duration of state 5 (default 300)
   --boot-ms MS           silence after restart 0x30 / Reset 00F0h (default 2000)
+  --product P            C1100, C1250, E1200 or E1400: command availability (default C1250)
   --reply-payload N      zero-fill replies to N bytes: 14 (observed) or 64 (manual) (default 14)
   --status-every S       print each drive's state every S seconds (default 0 = never)
   -h, --help             this text
@@ -141,6 +143,17 @@ Flags ParseFlags(int argc, char** argv) {
       f.sim.hw_test_time = Millis(arg, value, 0, 60'000);
     } else if (arg == "--boot-ms") {
       f.sim.boot_time = Millis(arg, value, 0, 600'000);
+    } else if (arg == "--product") {
+      bool found = false;
+      for (size_t p = 0; p < drivegw::linmot::mc::kProductCount; ++p) {
+        const auto product = static_cast<drivegw::linmot::mc::Product>(p);
+        if (value == drivegw::linmot::mc::ProductName(product)) {
+          f.sim.product = product;
+          found = true;
+        }
+      }
+      if (!found)
+        UsageError(absl::StrCat("--product: '", value, "' is not C1100, C1250, E1200 or E1400"));
     } else if (arg == "--reply-payload") {
       f.sim.min_reply_payload = static_cast<size_t>(ParseInt(arg, value, 0, 1472));
     } else if (arg == "--status-every") {
