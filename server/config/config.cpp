@@ -1,6 +1,7 @@
 // Parses and validates the gateway YAML; yaml-cpp exceptions stop here and become Status.
 #include "server/config/config.h"
 
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -420,6 +421,59 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
   }
 }
 
+// Records where each document starts; the tree itself is built by YAML::Load afterwards.
+class DocumentStarts : public YAML::EventHandler {
+ public:
+  void OnDocumentStart(const YAML::Mark& mark) override { last = mark; }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+
+  YAML::Mark last;
+};
+
+std::string At(const YAML::Mark& mark) {
+  return absl::StrCat("line ", mark.line + 1, ", column ", mark.column + 1);
+}
+
+// The text must hold one YAML document. yaml-cpp 0.7 does not consume a stray ',' (or similar
+// flow token) at block level: it reports an endless run of empty documents starting at the same
+// place, so YAML::LoadAll never returns and YAML::Load silently yields null. A document that
+// starts where the previous one did is that stuck token. May throw YAML::Exception.
+absl::Status CheckSingleDocument(const std::string& text) {
+  std::istringstream in(text);
+  YAML::Parser parser(in);
+  DocumentStarts handler;
+  std::vector<YAML::Mark> starts;
+  while (starts.size() < 3 && parser.HandleNextDocument(handler)) {
+    if (!starts.empty() && handler.last.pos == starts.back().pos) {
+      const unsigned char c =
+          handler.last.pos >= 0 && static_cast<size_t>(handler.last.pos) < text.size()
+              ? static_cast<unsigned char>(text[handler.last.pos])
+              : 0;
+      const std::string shown = c >= 0x21 && c < 0x7f
+                                    ? absl::StrCat("'", std::string(1, static_cast<char>(c)), "'")
+                                    : absl::StrCat("byte 0x", absl::Hex(c, absl::kZeroPad2));
+      return absl::InvalidArgumentError(
+          absl::StrCat("config: YAML error at ", At(handler.last), ": unexpected ", shown));
+    }
+    starts.push_back(handler.last);
+  }
+  if (starts.size() > 1) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "config: more than one YAML document (the second starts at ", At(starts[1]), ")"));
+  }
+  return absl::OkStatus();
+}
+
 absl::StatusOr<GatewayConfig> ParseDocument(const YAML::Node& doc,
                                             std::span<const std::string_view> families) {
   GatewayConfig cfg;
@@ -447,21 +501,16 @@ absl::StatusOr<GatewayConfig> ParseConfig(std::string_view yaml_text,
         absl::StrCat("config: ", yaml_text.size(), " bytes exceeds ", kMaxConfigBytes));
   }
   try {
-    const std::vector<YAML::Node> docs = YAML::LoadAll(std::string(yaml_text));
-    if (docs.size() > 1) {
-      return absl::InvalidArgumentError(absl::StrCat("config: ", docs.size(),
-                                                     " YAML documents, expected one (line ",
-                                                     docs[1].Mark().line + 1, ")"));
-    }
-    absl::StatusOr<GatewayConfig> cfg =
-        ParseDocument(docs.empty() ? YAML::Node(YAML::NodeType::Null) : docs.front(), families);
+    const std::string text(yaml_text);
+    if (absl::Status s = CheckSingleDocument(text); !s.ok()) return s;
+    absl::StatusOr<GatewayConfig> cfg = ParseDocument(YAML::Load(text), families);
     if (cfg.ok()) cfg->source_yaml = std::string(yaml_text);
     return cfg;
   } catch (const YAML::Exception& e) {
     // e.mark is 0-based; the text editors people use count from 1.
     if (e.mark.is_null()) return absl::InvalidArgumentError(absl::StrCat("config: ", e.msg));
-    return absl::InvalidArgumentError(absl::StrCat("config: YAML error at line ", e.mark.line + 1,
-                                                   ", column ", e.mark.column + 1, ": ", e.msg));
+    return absl::InvalidArgumentError(
+        absl::StrCat("config: YAML error at ", At(e.mark), ": ", e.msg));
   } catch (const std::exception& e) {
     return absl::InvalidArgumentError(absl::StrCat("config: ", e.what()));
   } catch (...) {
