@@ -100,16 +100,14 @@ absl::StatusOr<std::vector<const pb::FieldDescriptor*>> ResolvePath(const pb::De
   std::vector<const pb::FieldDescriptor*> fields;
   for (absl::string_view part : absl::StrSplit(path, '.')) {
     if (d == nullptr) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(path, ": ", fields.back()->name(), " is not a message"));
+      return absl::InvalidArgumentError(absl::StrCat(fields.back()->name(), " is not a message"));
     }
     const auto* f = FindField(d, part);
     if (f == nullptr) {
-      return absl::NotFoundError(absl::StrCat(path, ": no field ", part, " in ", d->full_name()));
+      return absl::NotFoundError(absl::StrCat("no field ", part, " in ", d->full_name()));
     }
     if (!fields.empty() && fields.back()->is_repeated()) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(path, ": ", fields.back()->name(), " is repeated"));
+      return absl::InvalidArgumentError(absl::StrCat(fields.back()->name(), " is repeated"));
     }
     fields.push_back(f);
     d = f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE ? f->message_type() : nullptr;
@@ -221,21 +219,28 @@ std::string FieldPathName(const std::vector<const pb::FieldDescriptor*>& fields)
       fields, ".", [](std::string* out, const pb::FieldDescriptor* f) { out->append(f->name()); });
 }
 
-// Protobuf's JSON errors name the field as "(field.path)" or "Cannot find field: x"; pull it
-// out so the 400 carries a google.rpc.BadRequest field violation.
-std::string FieldFromJsonError(absl::string_view message) {
-  if (const size_t open = message.find('('); open != absl::string_view::npos) {
-    const size_t close = message.find(')', open);
-    if (close != absl::string_view::npos && close > open + 1) {
-      return std::string(message.substr(open + 1, close - open - 1));
+// A protobuf JSON parse error split into the field it names (if any) and what went wrong.
+// protobuf 3.21 says "(a.b): invalid value \"x\" for type TYPE_DOUBLE" or "speed: Cannot find
+// field." (and ": Root element must be a message." without a field).
+struct JsonError {
+  std::string field;
+  std::string what;
+};
+JsonError SplitJsonError(absl::string_view message) {
+  if (absl::StartsWith(message, "(")) {
+    const size_t close = message.find("): ");
+    if (close != absl::string_view::npos && close > 1) {
+      return {std::string(message.substr(1, close - 1)), std::string(message.substr(close + 3))};
     }
   }
-  constexpr absl::string_view kUnknown = "Cannot find field: ";
-  if (const size_t at = message.find(kUnknown); at != absl::string_view::npos) {
-    absl::string_view rest = message.substr(at + kUnknown.size());
-    return std::string(rest.substr(0, rest.find_first_of(" \n\t")));
+  constexpr absl::string_view kUnknown = ": Cannot find field";
+  if (const size_t at = message.find(kUnknown);
+      at != absl::string_view::npos && at > 0 &&
+      message.substr(0, at).find(' ') == absl::string_view::npos) {
+    return {std::string(message.substr(0, at)), "no such field"};
   }
-  return {};
+  absl::ConsumePrefix(&message, ": ");
+  return {{}, std::string(message)};
 }
 
 std::string_view ContentTypeFor(const std::filesystem::path& file) {
@@ -562,8 +567,10 @@ absl::Status AddRoutes(const pb::MethodDescriptor* m, const google::api::HttpRul
   route.path = *std::move(tmpl);
   for (const auto& var : route.path.variables()) {
     auto fields = ResolvePath(m->input_type(), var.field_path);
-    if (!fields.ok())
-      return absl::InvalidArgumentError(absl::StrCat(where, ": ", fields.status().message()));
+    if (!fields.ok()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(where, ": path variable ", var.field_path, ": ", fields.status().message()));
+    }
     const auto* leaf = fields->back();
     if (leaf->is_repeated() || leaf->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
       return absl::InvalidArgumentError(
@@ -749,8 +756,10 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
   const pb::Descriptor* input = route.method->input_type();
   std::unique_ptr<pb::Message> msg(
       pb::MessageFactory::generated_factory()->GetPrototype(input)->New());
-  auto bad_request = [&](std::string message, std::string field) {
-    sink->OnResponse(ErrorResponse(400, kInvalidArgument, std::move(message), std::move(field)));
+  // 400 with "where: what" and, when a field is known, a google.rpc.BadRequest violation.
+  auto bad_request = [&](const std::string& where, absl::string_view what, std::string field) {
+    sink->OnResponse(ErrorResponse(400, kInvalidArgument, absl::StrCat(where, ": ", what),
+                                   std::move(field), std::string(what)));
   };
 
   // 1. The body: the whole request ("*") or one field of it.
@@ -766,10 +775,11 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
       json = &wrapped;
     }
     if (auto s = pb::util::JsonStringToMessage(*json, msg.get(), parse); !s.ok()) {
-      const std::string message(s.message());
-      std::string field = FieldFromJsonError(message);
-      if (route.body != "*" && field.empty()) field = route.body;
-      bad_request(absl::StrCat("body: ", message), std::move(field));
+      JsonError e = SplitJsonError(std::string(s.message()));
+      if (route.body != "*") {  // the body was wrapped as {"<field>": ...}
+        e.field = e.field.empty() ? route.body : e.field;
+      }
+      bad_request(e.field.empty() ? "body" : absl::StrCat("body field ", e.field), e.what, e.field);
       return;
     }
   }
@@ -783,7 +793,7 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
       return;
     }
     if (auto s = SetPath(msg.get(), *fields, b.value); !s.ok()) {
-      bad_request(absl::StrCat("path parameter ", b.field_path, ": ", s.message()), b.field_path);
+      bad_request(absl::StrCat("path parameter ", b.field_path), s.message(), b.field_path);
       return;
     }
     bound.insert(FieldPathName(*fields));
@@ -797,31 +807,31 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
     auto value =
         PercentDecode(eq == absl::string_view::npos ? "" : Sv(pair.substr(eq + 1)), false, true);
     if (!key || !value) {
-      bad_request(absl::StrCat("query: malformed percent-encoding in ", absl::CHexEscape(pair)),
+      bad_request("query", absl::StrCat("malformed percent-encoding in ", absl::CHexEscape(pair)),
                   "");
       return;
     }
     auto fields = ResolvePath(input, *key);
     if (!fields.ok()) {
-      bad_request(absl::StrCat("query parameter ", *key, ": ", fields.status().message()), *key);
+      bad_request(absl::StrCat("query parameter ", *key), fields.status().message(), *key);
       return;
     }
     const std::string name = FieldPathName(*fields);
     if (route.body == "*" ||
         (!route.body.empty() && absl::StartsWith(name + ".", route.body + "."))) {
-      bad_request(absl::StrCat("query parameter ", *key, ": set in the JSON body instead"), *key);
+      bad_request(absl::StrCat("query parameter ", *key), "set it in the JSON body instead", *key);
       return;
     }
     if (bound.count(name) > 0) {
-      bad_request(absl::StrCat("query parameter ", *key, ": bound by the path"), *key);
+      bad_request(absl::StrCat("query parameter ", *key), "bound by the path", *key);
       return;
     }
     if (!fields->back()->is_repeated() && !seen.insert(name).second) {
-      bad_request(absl::StrCat("query parameter ", *key, ": given twice"), *key);
+      bad_request(absl::StrCat("query parameter ", *key), "given twice", *key);
       return;
     }
     if (auto s = SetPath(msg.get(), *fields, *value); !s.ok()) {
-      bad_request(absl::StrCat("query parameter ", *key, ": ", s.message()), name);
+      bad_request(absl::StrCat("query parameter ", *key), s.message(), name);
       return;
     }
   }

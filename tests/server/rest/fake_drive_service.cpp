@@ -7,7 +7,7 @@
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 
-namespace drivegw::rest::testing {
+namespace drivegw::rest::test_support {
 namespace v1 = drivegw::v1;
 
 namespace {
@@ -230,4 +230,4 @@ void FakeGrpcServer::Shutdown() {
   }
 }
 
-}  // namespace drivegw::rest::testing
+}  // namespace drivegw::rest::test_support

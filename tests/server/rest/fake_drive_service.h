@@ -14,7 +14,7 @@
 
 #include "drivegw/v1/drive.grpc.pb.h"
 
-namespace drivegw::rest::testing {
+namespace drivegw::rest::test_support {
 
 // Behaviour keyed by request fields:
 //  GetDrive        "drives/x1", "drives/x2" exist; other names: NOT_FOUND.
@@ -99,4 +99,4 @@ class FakeGrpcServer {
   bool shut_down_ = false;
 };
 
-}  // namespace drivegw::rest::testing
+}  // namespace drivegw::rest::test_support

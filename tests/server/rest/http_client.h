@@ -17,7 +17,7 @@
 #include <string>
 #include <string_view>
 
-namespace drivegw::rest::testing {
+namespace drivegw::rest::test_support {
 
 struct RawResponse {
   int status = 0;
@@ -198,4 +198,4 @@ class HttpClient {
   std::string buf_;
 };
 
-}  // namespace drivegw::rest::testing
+}  // namespace drivegw::rest::test_support

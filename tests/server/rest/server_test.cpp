@@ -20,7 +20,7 @@ namespace {
 
 using ::testing::HasSubstr;
 using json = nlohmann::json;
-using testing::HttpClient;
+using test_support::HttpClient;
 using namespace std::chrono_literals;
 
 std::string ReadFile(const std::string& path) {
@@ -49,17 +49,17 @@ class RestServerTest : public ::testing::Test {
   }
 
   // One request on a fresh connection.
-  testing::RawResponse Fetch(std::string_view method, std::string_view target,
+  test_support::RawResponse Fetch(std::string_view method, std::string_view target,
                              std::string_view body = {}) {
     HttpClient c(server_->port());
     EXPECT_TRUE(c.connected());
     EXPECT_TRUE(c.SendRequest(method, target, body));
     auto r = c.Read();
     EXPECT_TRUE(r.has_value()) << method << " " << target;
-    return r.value_or(testing::RawResponse{});
+    return r.value_or(test_support::RawResponse{});
   }
 
-  testing::FakeGrpcServer grpc_;
+  test_support::FakeGrpcServer grpc_;
   std::unique_ptr<RestServer> server_;
 };
 
