@@ -199,7 +199,10 @@ void LinMotDevice::Tick() {
 SmInputs LinMotDevice::Inputs() const {
   SmInputs in;
   in.moving = axis_.motion_active() || axis_.demand().velocity != 0;
-  in.homing_finished = sm_.state() == MainState::kHoming && homed_ && !homing_;
+  const MainState s = sm_.state();
+  in.procedure_finished = s == MainState::kHoming
+                              ? homed_ && !homing_
+                              : StateMachine::Procedure(s) && !axis_.motion_active();
   // §2.6 / §11.3: a PTC error is acknowledged only after its warn bit has gone.
   const uint16_t code = sm_.error_code();
   const uint16_t warn = warn_word();
@@ -274,6 +277,41 @@ void LinMotDevice::Apply(const SmEffects& fx) {
                         StartFrom::kDemand, ZeroLimits::kHoldPosition)
             : axis_.MoveTo(r.target_mm, r.limits, StartFrom::kDemand, ZeroLimits::kHoldPosition);
     if (s.ok()) running_ = r;
+  }
+  if (fx.cancel_procedure) {
+    // D-06: go-to-position / initial position / jog released early: quick stop.
+    if (axis_.Stop(quick_stop, ZeroLimits::kHoldPosition).ok()) target_ = ToInc(axis_.target());
+    running_.reset();
+  }
+  if (fx.start_procedure) {
+    // States 11, 15, 16, 17 with the project parameters of decision 601 (D-32).
+    const double a = params_.Get(upid::kHomingAcceleration) / kAccPerMmS2;
+    const Limits go{params_.Get(upid::kHomingVelocity) / kVelPerMmS, a, a};
+    const double jog_v = params_.Get(upid::kJogVelocity) / kVelPerMmS;
+    const Limits jog{jog_v, a, a};
+    absl::Status s;
+    switch (sm_.state()) {
+      case MainState::kGoingToInitialPosition:
+        s = axis_.MoveTo(params_.Get(upid::kInitialPosition) / kIncPerMm, go);
+        break;
+      case MainState::kGoingToPosition:
+        s = axis_.MoveTo(params_.Get(upid::kGoToPositionTarget) / kIncPerMm, go);
+        break;
+      case MainState::kJoggingPlus:
+        s = axis_.Jog(jog_v, jog, params_.Get(upid::kMaximalPosition) / kIncPerMm);
+        break;
+      case MainState::kJoggingMinus:
+        s = axis_.Jog(-jog_v, jog, params_.Get(upid::kMinimalPosition) / kIncPerMm);
+        break;
+      default:
+        break;
+    }
+    if (!s.ok()) {
+      log::Warn("linmot_sim.procedure_refused",
+                log::Fields().Add("drive", options_.name).Add("reason", s.message()));
+    }
+    target_ = ToInc(axis_.target());
+    running_.reset();
   }
   if (fx.start_homing) {
     // D-39: a VAI move with the homing parameters to the configured position, which then
@@ -705,7 +743,7 @@ uint16_t LinMotDevice::status_word() const {
       .With(SW::kSwitchOnLocked, sm_.switch_on_locked())
       .With(SW::kWarning, warn_word() != 0)
       .With(SW::kEventHandlerActive, event_handler_active())
-      .With(SW::kSpecialMotionActive, main == static_cast<uint8_t>(MainState::kHoming))  // D-40
+      .With(SW::kSpecialMotionActive, StateMachine::Procedure(sm_.state()))  // D-40
       .With(SW::kInTargetPosition, in_target())
       .With(SW::kHomed, homed_)
       .With(SW::kFatalError, sm_.error_active() && sm_.fatal())

@@ -148,6 +148,11 @@ Parameters Parameters::ForOptions(const SimOptions& o) {
       Ranged(upid::kPositionLagWarnLimit, "Position Lag Warn Limit", T::kSInt32, 50000, 0, kPosMax),
       Ranged(upid::kHomingTargetPosition, "Homing Target Position", T::kSInt32,
              Round(o.home_position_mm * 1e4), kPosMin, kPosMax),
+      Param(upid::kGoToPositionTarget, "Go To Position Target", T::kSInt32,
+            Round((o.stroke_min_mm + o.stroke_max_mm) / 2 * 1e4)),
+      Param(upid::kInitialPosition, "Initial Position", T::kSInt32,
+            Round(o.initial_position_mm * 1e4)),
+      Ranged(upid::kJogVelocity, "Jog Maximal Velocity", T::kUInt32, 50'000, 1, kLimitMax),
   };
   return Parameters(std::move(d));
 }

@@ -70,6 +70,9 @@ inline constexpr uint16_t kHomingAcceleration = 0xF002;    // 1E-5 m/s^2 (D-39)
 inline constexpr uint16_t kMotorRequiresHoming = 0xF003;   // Bool (D-41)
 inline constexpr uint16_t kPositionLagWarnLimit = 0xF004;  // 0.1 um, warn bit 4
 inline constexpr uint16_t kHomingTargetPosition = 0xF005;  // 0.1 um, physical frame (D-39)
+inline constexpr uint16_t kGoToPositionTarget = 0xF006;    // 0.1 um, state 15 (CW bit 6)
+inline constexpr uint16_t kInitialPosition = 0xF007;       // 0.1 um, state 11 (CW bit 13)
+inline constexpr uint16_t kJogVelocity = 0xF008;           // 1E-6 m/s, states 16/17
 }  // namespace upid
 
 // RAM/ROM store (D-31): RAM := ROM at boot and Reset; ROM lives as long as the object (the

@@ -17,6 +17,8 @@ void SmEffects::Merge(const SmEffects& o) {
   resume = resume || o.resume;
   start_homing = start_homing || o.start_homing;
   cancel_homing = cancel_homing || o.cancel_homing;
+  start_procedure = start_procedure || o.start_procedure;
+  cancel_procedure = cancel_procedure || o.cancel_procedure;
   if (o.log_error != 0) log_error = o.log_error;
 }
 
@@ -30,7 +32,7 @@ void StateMachine::PowerUp() {
   error_code_ = 0;
   fatal_ = false;
   off3_stopping_ = false;
-  homing_finished_ = false;
+  procedure_finished_ = false;
 }
 
 bool StateMachine::Powered(MainState s) {
@@ -38,6 +40,12 @@ bool StateMachine::Powered(MainState s) {
   // position (14 until its quick stop ends).
   const auto n = static_cast<uint8_t>(s);
   return n >= static_cast<uint8_t>(MainState::kReadyToOperate);
+}
+
+bool StateMachine::Procedure(MainState s) {
+  return s == MainState::kHoming || s == MainState::kGoingToInitialPosition ||
+         s == MainState::kGoingToPosition || s == MainState::kJoggingPlus ||
+         s == MainState::kJoggingMinus;
 }
 
 bool StateMachine::error_active() const {
@@ -52,7 +60,12 @@ uint8_t StateMachine::sub_state() const {
       // §2.6: the logged error code (every §10 code is <= 00FFh).
       return static_cast<uint8_t>(error_code_ & 0xFF);
     case MainState::kHoming:
-      return homing_finished_ ? mc::kSubStateFinished : 0;
+    case MainState::kGoingToInitialPosition:
+    case MainState::kGoingToPosition:
+      return procedure_finished_ ? mc::kSubStateFinished : 0;
+    case MainState::kJoggingPlus:
+    case MainState::kJoggingMinus:
+      return procedure_finished_ ? mc::kSubStateFinished : mc::kSubStateJogMoving;
     default:
       return 0;
   }
@@ -61,13 +74,16 @@ uint8_t StateMachine::sub_state() const {
 void StateMachine::Go(MainState to, SmEffects& fx) {
   const MainState from = state_;
   if (from == to) return;
-  if (from == MainState::kHoming && !homing_finished_) fx.cancel_homing = true;  // D-06
+  if (Procedure(from) && !procedure_finished_) {
+    // D-06: leaving before completion stops the procedure (quick stop); homing leaves Homed = 0.
+    (from == MainState::kHoming ? fx.cancel_homing : fx.cancel_procedure) = true;
+  }
   if (Powered(from) && !Powered(to)) fx.power_off = true;
   if (!Powered(from) && Powered(to)) fx.power_on = true;
   if (to == MainState::kHwTests) hw_test_elapsed_ = Duration{0};
-  if (to == MainState::kHoming) {
-    homing_finished_ = false;
-    fx.start_homing = true;
+  if (Procedure(to)) {
+    procedure_finished_ = false;
+    (to == MainState::kHoming ? fx.start_homing : fx.start_procedure) = true;
   }
   if (!Powered(to)) off3_stopping_ = false;
   state_ = to;
@@ -191,17 +207,37 @@ bool StateMachine::Step(uint16_t rising, const SmInputs& in, SmEffects& fx) {
             Go(MainState::kFreezing, fx);
           } else if (home) {
             Go(MainState::kHoming, fx);  // T10
+          } else if (cw & mc::kGoToPosition) {
+            Go(MainState::kGoingToPosition, fx);  // T17
+          } else if (cw & mc::kJogPlus) {
+            Go(MainState::kJoggingPlus, fx);  // T18
+          } else if (cw & mc::kJogMinus) {
+            Go(MainState::kJoggingMinus, fx);
+          } else if (rising & mc::kGoToInitialPosition) {
+            Go(MainState::kGoingToInitialPosition, fx);  // T12: rising edge
           }
           break;
         case MainState::kHoming:
-          if (in.homing_finished) homing_finished_ = true;
+        case MainState::kGoingToInitialPosition:
+        case MainState::kGoingToPosition:
+        case MainState::kJoggingPlus:
+        case MainState::kJoggingMinus: {
+          // T22 / D-06: finished -> sub state 0Fh; back to 8 when the requesting bit is 0.
+          if (in.procedure_finished) procedure_finished_ = true;
+          const uint16_t request_bit = state_ == MainState::kHoming ? mc::kHome
+                                       : state_ == MainState::kGoingToInitialPosition
+                                           ? mc::kGoToInitialPosition
+                                       : state_ == MainState::kGoingToPosition ? mc::kGoToPosition
+                                       : state_ == MainState::kJoggingPlus     ? mc::kJogPlus
+                                                                               : mc::kJogMinus;
           if (!no_abort) {
             fx.quick_stop = fx.clear_motion = true;
             Go(MainState::kAborting, fx);
-          } else if (!home) {
-            Go(MainState::kOperationEnabled, fx);  // T22 / D-06 (cancel if not finished)
+          } else if (!(cw & request_bit)) {
+            Go(MainState::kOperationEnabled, fx);
           }
           break;
+        }
         case MainState::kAborting:
           if (no_abort) Go(MainState::kOperationEnabled, fx);  // T14: no resumption
           break;
@@ -215,7 +251,7 @@ bool StateMachine::Step(uint16_t rising, const SmInputs& in, SmEffects& fx) {
           }
           break;
         default:
-          // 7, 10, 11, 15-21 are never entered by this simulator (D-07, decision 601).
+          // 7, 10, 18-21 are never entered by this simulator (D-07, decision 601).
           Go(MainState::kOperationEnabled, fx);
           break;
       }

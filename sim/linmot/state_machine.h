@@ -12,8 +12,9 @@ namespace mc = ::drivegw::linmot::mc;  // as in options.h
 
 // What the state machine needs to know about the motion side.
 struct SmInputs {
-  bool moving = false;               // set-point generation running or demand velocity != 0
-  bool homing_finished = false;      // the homing procedure reached "homed" (D-39)
+  bool moving = false;  // set-point generation running or demand velocity != 0
+  // The special motion of the current state (9 homing, 11, 15, 16, 17) has finished (D-06).
+  bool procedure_finished = false;
   bool acknowledge_blocked = false;  // §2.6: a PTC error whose warn bit is still set
 };
 
@@ -28,7 +29,10 @@ struct SmEffects {
   bool resume = false;          // 13 -> 8: finish the frozen command (T16)
   bool start_homing = false;    // 8 -> 9 (T10)
   bool cancel_homing = false;   // 9 left before finished (D-06): Homed = 0
-  uint16_t log_error = 0;       // an error to enter in the error log (§2.6, D-03)
+  // 8 -> 11, 15, 16, 17 (T12, T17, T18): the device starts the motion of the new state.
+  bool start_procedure = false;
+  bool cancel_procedure = false;  // 11, 15, 16, 17 left before finished (D-06): quick stop
+  uint16_t log_error = 0;         // an error to enter in the error log (§2.6, D-03)
 
   void Merge(const SmEffects& o);
 };
@@ -70,7 +74,9 @@ class StateMachine {
   // Set-point generation belongs to a stop (OFF3 quick stop in progress): no new commands.
   bool off3_stopping() const { return off3_stopping_; }
   bool switch_on_locked() const { return state_ == mc::MainState::kNotReadyToSwitchOn; }
-  bool homing_finished() const { return homing_finished_; }
+  bool procedure_finished() const { return procedure_finished_; }
+  // States 9, 11, 15, 16, 17: a procedure started by a control word bit (D-06, D-40).
+  static bool Procedure(mc::MainState s);
 
   static bool Powered(mc::MainState s);
 
@@ -88,7 +94,7 @@ class StateMachine {
   uint16_t error_code_ = 0;
   bool fatal_ = false;
   bool off3_stopping_ = false;
-  bool homing_finished_ = false;
+  bool procedure_finished_ = false;
 };
 
 }  // namespace drivegw::sim::linmot

@@ -374,5 +374,29 @@ TEST_F(DeviceTest, MotionCommandInHoming_Raises0086_D36) {
   EXPECT_EQ(dev_->error_code(), mc::kMotionCommandInWrongState);
 }
 
+TEST_F(DeviceTest, JogPlus_MovesTowardsMaximalPositionUntilReleased_T18) {
+  Ready();
+  Cw(mc::kOperational | mc::kJogPlus);
+  EXPECT_EQ(Sv().raw(), 0x1001);
+  EXPECT_TRUE(Sw().special_motion_active());
+  Ms(1000);  // 50 mm/s default jog speed (F008h), homing acceleration F002h
+  EXPECT_NEAR(DemandMm(), 48.75, 1e-3);  // 50 ms ramp at 1000 mm/s² loses 1.25 mm
+  Cw(mc::kOperational);
+  EXPECT_EQ(Main(), 8);
+  Ms(100);
+  EXPECT_FALSE(Sw().motion_active());
+}
+
+TEST_F(DeviceTest, GoToPosition_FinishesAndWaitsForRelease_T17) {
+  Ready();
+  Cw(mc::kOperational | mc::kGoToPosition);
+  EXPECT_EQ(Main(), 15);
+  Ms(3000);  // to the stroke middle, 150 mm (F006h default), with the homing limits
+  EXPECT_EQ(Sv().raw(), 0x0F0F);
+  EXPECT_EQ(dev_->demand_position(), 1'500'000);
+  Cw(mc::kOperational);
+  EXPECT_EQ(Main(), 8);
+}
+
 }  // namespace
 }  // namespace drivegw::sim::linmot::testing

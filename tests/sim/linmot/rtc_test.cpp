@@ -109,7 +109,8 @@ TEST_F(RtcTest, UpidList_WalksToEnd) {
     ASSERT_EQ(r.status, 0);
     found.push_back(r.word2);
   }
-  EXPECT_EQ(found, (std::vector<uint16_t>{0xF000, 0xF001, 0xF002, 0xF003, 0xF004, 0xF005}));
+  EXPECT_EQ(found, (std::vector<uint16_t>{0xF000, 0xF001, 0xF002, 0xF003, 0xF004, 0xF005, 0xF006,
+                                          0xF007, 0xF008}));
   // Modified list: ROM values that differ from their defaults.
   Rtc(RtcCommand::kWriteRomValueByUpid, upid::kCmdTabVar2, 42);
   Rtc(RtcCommand::kStartGettingModifiedUpidList, 0);

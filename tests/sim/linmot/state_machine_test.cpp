@@ -161,7 +161,7 @@ TEST_F(StateMachineTest, Homing_Finished_SubStateFAndWaitsForRelease) {
   ToState6();
   sm_.SetControlWord(mc::kOperational, kStill);
   sm_.SetControlWord(mc::kHoming, kStill);
-  sm_.Tick(milliseconds(1), {.homing_finished = true});
+  sm_.Tick(milliseconds(1), {.procedure_finished = true});
   EXPECT_EQ(sm_.main_state(), 9);
   EXPECT_EQ(sm_.sub_state(), 0x0F);
   const SmEffects fx = sm_.SetControlWord(mc::kOperational, kStill);
@@ -184,6 +184,34 @@ TEST_F(StateMachineTest, AbortAndFreeze_TransitionsAndEffects) {
   fx = sm_.SetControlWord(mc::kOperational, kStill);
   EXPECT_EQ(sm_.main_state(), 8);
   EXPECT_TRUE(fx.resume);
+}
+
+TEST_F(StateMachineTest, JogAndGoToPosition_LevelBitsAndSubStates_T17_T18) {
+  ToState6();
+  sm_.SetControlWord(mc::kOperational, kStill);
+  SmEffects fx = sm_.SetControlWord(mc::kOperational | mc::kJogPlus, kStill);
+  EXPECT_EQ(sm_.main_state(), 16);
+  EXPECT_TRUE(fx.start_procedure);
+  EXPECT_EQ(sm_.sub_state(), 0x01);  // moving
+  sm_.Tick(milliseconds(1), {.procedure_finished = true});
+  EXPECT_EQ(sm_.sub_state(), 0x0F);
+  fx = sm_.SetControlWord(mc::kOperational, kStill);
+  EXPECT_EQ(sm_.main_state(), 8);
+  EXPECT_FALSE(fx.cancel_procedure);
+  sm_.SetControlWord(mc::kOperational | mc::kGoToPosition, kStill);
+  EXPECT_EQ(sm_.main_state(), 15);
+  fx = sm_.SetControlWord(mc::kOperational, {.moving = true});
+  EXPECT_EQ(sm_.main_state(), 8);
+  EXPECT_TRUE(fx.cancel_procedure);  // released before finished (D-06)
+}
+
+TEST_F(StateMachineTest, GoToInitialPosition_RisingEdgeOnly_T12) {
+  ToState6();
+  sm_.SetControlWord(mc::kOperational | mc::kGoToInitialPosition, kStill);  // held while 6 -> 8
+  EXPECT_EQ(sm_.main_state(), 8);
+  sm_.SetControlWord(mc::kOperational, kStill);
+  sm_.SetControlWord(mc::kOperational | mc::kGoToInitialPosition, kStill);
+  EXPECT_EQ(sm_.main_state(), 11);
 }
 
 }  // namespace
