@@ -362,6 +362,7 @@ void LinMotUdpDrive::OnTimeout() noexcept {
       UpdateCommand(m.id, CommandState::kError,
                     absl::StrCat("not accepted within ", config().timeouts.accept.count(),
                                  " ms: no reply from the drive (linmot-mc.md D-11)"));
+      DisarmMcBlockLocked(m.count);
       motion_.reset();
     } else if (m.completion_deadline && now >= *m.completion_deadline) {
       UpdateCommand(m.id, CommandState::kError,
@@ -382,6 +383,14 @@ void LinMotUdpDrive::OnLinkChange(LinkState state) noexcept {
   std::lock_guard lock(mu_);
   if (!active_) return;
   link_ = state;
+  if (state == LinkState::kOffline && motion_ && !motion_->accepted) {
+    // Decided here, before the session builds the next telegram, so that no telegram built after
+    // the handle ended still carries the command (DisarmMcBlockLocked).
+    UpdateCommand(motion_->id, CommandState::kError,
+                  absl::StrCat("not accepted: link to ", endpoint(), " lost"));
+    DisarmMcBlockLocked(motion_->count);
+    motion_.reset();
+  }
   if (state != LinkState::kOnline) {
     history_.clear();
     velocity_mm_s_ = demand_velocity_mm_s_ = 0;
@@ -405,6 +414,7 @@ void LinMotUdpDrive::EvaluateMotionLocked(TimePoint now) {
   const uint8_t ms = sv.main_state;
   auto end = [&](CommandState st, const std::string& message) {
     UpdateCommand(m.id, st, message);
+    if (!m.accepted) DisarmMcBlockLocked(m.count);
     motion_.reset();
   };
   if (!m.accepted) {
@@ -578,6 +588,18 @@ void LinMotUdpDrive::PublishLocked(bool force) {
 
 // ---------------------------------------------------------------------------------------------
 // Waiting.
+
+void LinMotUdpDrive::DisarmMcBlockLocked(uint8_t count) {
+  // A command that was reported ERROR/ABORTED before the drive accepted it must not run later
+  // (e.g. after a link hiccup): the same count with No Operation replaces it. A drive that did
+  // take the count ignores the NOP (same count, §4.3); one that did not executes the NOP.
+  if (!mc_block_ ||
+      mc::Header::FromRaw(static_cast<uint16_t>((*mc_block_)[0] | ((*mc_block_)[1] << 8))).count !=
+          count) {
+    return;
+  }
+  if (auto nop = mc::EncodeMotionCommand(mc::NoOperation(), count); nop.ok()) mc_block_ = *nop;
+}
 
 void LinMotUdpDrive::SetControlWordLocked(uint16_t cw) {
   if (control_word_ == cw) return;
@@ -978,6 +1000,7 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
         absl::StrCat("not accepted within ", config().timeouts.accept.count(), " ms (count ", count,
                      ", echo ", sample_.state_var.count_echo(), ", linmot-mc.md D-11)"));
     if (motion_ && motion_->id == info.id) motion_.reset();
+    DisarmMcBlockLocked(count);
     UpdateCommand(info.id, CommandState::kError, std::string(s.message()));
     return s;
   }
@@ -986,11 +1009,11 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
   if (accepted_id_ != info.id) {
     // Ended before the drive accepted it: refused (fault) or interrupted.
     const Fault fault = FaultLocked();
-    absl::Status s = result->state == CommandState::kError
-                         ? absl::FailedPreconditionError(
-                               absl::StrCat("drive '", name_, "': ", kind, ": ", result->message))
-                         : absl::AbortedError(
-                               absl::StrCat("drive '", name_, "': ", kind, ": ", result->message));
+    const std::string message = absl::StrCat("drive '", name_, "': ", kind, ": ", result->message);
+    absl::Status s = link_ == LinkState::kOffline ? absl::UnavailableError(message)
+                     : result->state == CommandState::kError
+                         ? absl::FailedPreconditionError(message)
+                         : absl::AbortedError(message);
     if (fault.code != 0) mc::AttachErrorCode(s, static_cast<uint16_t>(fault.code));
     return s;
   }

@@ -118,6 +118,8 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   void PublishLocked(bool force);
   DriveStatus BuildStatusLocked() const;
   void SetControlWordLocked(uint16_t cw);
+  // Replaces an unaccepted MC block of `count` by No Operation with the same count.
+  void DisarmMcBlockLocked(uint8_t count);
   bool OnlineLocked() const { return link_ == LinkState::kOnline && sample_.valid; }
   uint8_t MainStateLocked() const { return sample_.state_var.main_state; }
   std::string StateTextLocked() const;  // "main state 6 (Ready To Operate)"

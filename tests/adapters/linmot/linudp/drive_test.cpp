@@ -326,6 +326,28 @@ TEST_F(LinMotUdpDriveTest, LinkLoss_OfflineThenRecovery) {
   EXPECT_GT(d->exchange_counters()->replies, 0u);
 }
 
+TEST_F(LinMotUdpDriveTest, MoveNotAccepted_ErrorAndNeverExecutedLater) {
+  EnableOrDie();
+  const double before = Sim().demand_position_mm;
+  server_->SetAnswering(false);  // the drive reads nothing: the command cannot be accepted
+  auto r = drive_->Move(MoveAbsolute{100, 500, 5000, 5000});
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(r.status().code(), ::testing::AnyOf(absl::StatusCode::kDeadlineExceeded,
+                                                  absl::StatusCode::kUnavailable));
+  ASSERT_TRUE(drive_->GetStatus().last_command.has_value());
+  EXPECT_EQ(drive_->GetStatus().last_command->state, CommandState::kError);
+  server_->SetAnswering(true);
+  WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
+  // An RTC round trip proves telegrams (still carrying the MC block) reached the drive again.
+  ASSERT_TRUE(drive_->ReadParameter({sim::linmot::upid::kPredefVelocity, false}).ok());
+  const auto sim = Sim();
+  EXPECT_FALSE(sim.motion_active);
+  EXPECT_NEAR(sim.demand_position_mm, before, 1e-9);  // the block was disarmed to a NOP
+  // The count ring goes on: the next command is accepted normally.
+  EXPECT_EQ(WaitFinal(MoveOrDie(MoveAbsolute{30, 500, 5000, 5000}).id).state,
+            CommandState::kDone);
+}
+
 TEST_F(LinMotUdpDriveTest, Home_ActiveThenDoneHomed) {
   EnableOrDie();
   auto home = drive_->Home();
