@@ -691,9 +691,12 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::Enable() {
         return absl::OkStatus();
       }
       if (IsFaultState(ms)) {
-        return absl::FailedPreconditionError(
+        const Fault fault = FaultLocked();
+        absl::Status s = absl::FailedPreconditionError(
             absl::StrCat("drive '", name_, "': Enable: drive reports a fault in ",
-                         StateTextLocked(), ": ", FaultLocked().text, "; AcknowledgeFault first"));
+                         StateTextLocked(), ": ", fault.text, "; AcknowledgeFault first"));
+        if (fault.code != 0) mc::AttachErrorCode(s, static_cast<uint16_t>(fault.code));
+        return s;
       }
       // §2.7 steps 1-2: release the anti-restart lock (0 -> 1), then 1 -> 2, then switch on.
       uint16_t cw = mc::kOperational;

@@ -276,6 +276,7 @@ TEST_F(LinMotUdpDriveTest, FaultRaisedBySim_FaultWithCodeAndText_MoveHandleError
   auto en = drive_->Enable();
   EXPECT_EQ(en.status().code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(en.status().message(), HasSubstr("AcknowledgeFault"));
+  EXPECT_EQ(mc::GetErrorCode(en.status()), mc::kPwrVoltageTooLow);
 }
 
 TEST_F(LinMotUdpDriveTest, AcknowledgeFault_ClearsAndReleasesAntiRestart_ThenEnable) {
