@@ -50,7 +50,7 @@ class RestServerTest : public ::testing::Test {
 
   // One request on a fresh connection.
   test_support::RawResponse Fetch(std::string_view method, std::string_view target,
-                             std::string_view body = {}) {
+                                  std::string_view body = {}) {
     HttpClient c(server_->port());
     EXPECT_TRUE(c.connected());
     EXPECT_TRUE(c.SendRequest(method, target, body));
@@ -284,6 +284,33 @@ TEST_F(RestServerTest, OversizedBody_413AndServerStaysUp) {
     EXPECT_EQ(r->status, 413);
   }
   EXPECT_EQ(Fetch("POST", "/v1/drives/x1:moveAbsolute", R"({"position_mm": 1})").status, 200);
+}
+
+TEST_F(RestServerTest, OversizedHeader_431AndClosed) {
+  HttpClient c(server_->port());
+  ASSERT_TRUE(c.SendRequest("GET", "/v1/drives", {}, "X-Big: " + std::string(20000, 'a') + "\r\n"));
+  auto r = c.Read();
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 431);
+  EXPECT_TRUE(c.WaitClosed());
+  EXPECT_EQ(Fetch("GET", "/v1/drives").status, 200);
+}
+
+TEST_F(RestServerTest, Watch_Http10_LinesWithoutChunkingThenClose) {
+  HttpClient c(server_->port());
+  ASSERT_TRUE(c.Send("GET /v1/drives:watch?names=x2 HTTP/1.0\r\n\r\n"));
+  auto r = c.Read();  // delimited by the close
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->header("transfer-encoding"), "");
+  std::istringstream lines(r->body);
+  std::string line;
+  int n = 0;
+  while (std::getline(lines, line)) {
+    EXPECT_EQ(json::parse(line)["name"], "drives/x2") << line;
+    ++n;
+  }
+  EXPECT_EQ(n, 3);
 }
 
 TEST_F(RestServerTest, IdleAndSlowClients_ClosedAfterReadTimeout) {
