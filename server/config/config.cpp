@@ -239,7 +239,7 @@ bool IsValidIpv6Literal(std::string_view host) {
   });
 }
 
-// "host:port", "[v6]:port"; port 0..65535 (0 = ephemeral, used by tests).
+// "host:port", "[v6]:port" or ":port"; port 0..65535 (0 = ephemeral, used by tests).
 bool IsHostPort(std::string_view text) {
   const size_t colon = text.rfind(':');
   if (colon == std::string_view::npos) return false;
@@ -252,6 +252,7 @@ bool IsHostPort(std::string_view text) {
   int value = 0;
   for (char c : port) value = value * 10 + (c - '0');
   if (value > kMaxPort) return false;
+  if (host.empty()) return true;  // ":8080": every interface, as the server reads it
   if (host.size() >= 2 && host.front() == '[' && host.back() == ']') {
     return IsValidIpv6Literal(host.substr(1, host.size() - 2));
   }

@@ -174,6 +174,12 @@ TEST(ParseConfigTest, IPv6ListenAddress_Accepted) {
   EXPECT_EQ(cfg->listen.grpc, "[::]:50051");
 }
 
+TEST(ParseConfigTest, EmptyListenHost_MeansEveryInterface) {
+  auto cfg = ParseConfig("listen:\n  http: ':8081'\n");
+  ASSERT_TRUE(cfg.ok()) << cfg.status();
+  EXPECT_EQ(cfg->listen.http, ":8081");
+}
+
 // ---- the error messages from the brief ----
 
 TEST(ParseConfigTest, PortAbove65535_NamesPathAndLimit) {
@@ -247,8 +253,10 @@ TEST(ParseConfigTest, ListenNotHostPort_Rejected) {
               HasSubstr("listen.http: 'abc' is not a host:port"));
   EXPECT_THAT(ErrorOf("listen:\n  grpc: 0.0.0.0:99999\n").message(),
               HasSubstr("listen.grpc: '0.0.0.0:99999' is not a host:port"));
-  EXPECT_THAT(ErrorOf("listen:\n  grpc: ':80'\n").message(),
-              HasSubstr("listen.grpc: ':80' is not a host:port"));
+  EXPECT_THAT(ErrorOf("listen:\n  grpc: 'host:'\n").message(),
+              HasSubstr("listen.grpc: 'host:' is not a host:port"));
+  EXPECT_THAT(ErrorOf("listen:\n  grpc: 'a b:80'\n").message(),
+              HasSubstr("listen.grpc: 'a b:80' is not a host:port"));
   EXPECT_THAT(ErrorOf("listen:\n  grpc: [1, 2]\n").message(),
               HasSubstr("listen.grpc: expected a string, got a sequence"));
 }
