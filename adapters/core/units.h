@@ -6,7 +6,6 @@
 #include <cstdint>
 #include <limits>
 #include <string>
-#include <string_view>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
@@ -19,8 +18,10 @@ inline constexpr double kVelocityPerMmS = 1'000.0;      // 1E-6 m/s = 1 µm/s
 inline constexpr double kAccelerationPerMmS2 = 100.0;   // 1E-5 m/s² = 0.01 mm/s²
 inline constexpr double kJerkPerMmS3 = 10.0;            // 1E-4 m/s³ = 0.1 mm/s³
 
+// Fields are std::string: Debian's abseil 20220623 has its own absl::string_view, which StrCat
+// does not convert from std::string_view.
 // Rounds value*scale to the nearest integer and checks it fits [lo, hi].
-inline absl::StatusOr<int64_t> ToFixed(std::string_view field, double value, double scale,
+inline absl::StatusOr<int64_t> ToFixed(const std::string& field, double value, double scale,
                                        int64_t lo, int64_t hi) {
   if (!std::isfinite(value)) {
     return absl::InvalidArgumentError(absl::StrCat(field, ": ", value, " is not a finite number"));
@@ -34,19 +35,19 @@ inline absl::StatusOr<int64_t> ToFixed(std::string_view field, double value, dou
   return static_cast<int64_t>(scaled);
 }
 
-inline absl::StatusOr<int32_t> PositionToWire(std::string_view field, double mm) {
+inline absl::StatusOr<int32_t> PositionToWire(const std::string& field, double mm) {
   auto v = ToFixed(field, mm, kPositionPerMm, std::numeric_limits<int32_t>::min(),
                    std::numeric_limits<int32_t>::max());
   if (!v.ok()) return v.status();
   return static_cast<int32_t>(*v);
 }
 // Velocity limits: UInt32 0 … 7FFF'FFFFh (linmot-mc.md §6.1).
-inline absl::StatusOr<uint32_t> VelocityToWire(std::string_view field, double mm_s) {
+inline absl::StatusOr<uint32_t> VelocityToWire(const std::string& field, double mm_s) {
   auto v = ToFixed(field, mm_s, kVelocityPerMmS, 0, 0x7FFF'FFFF);
   if (!v.ok()) return v.status();
   return static_cast<uint32_t>(*v);
 }
-inline absl::StatusOr<uint32_t> AccelerationToWire(std::string_view field, double mm_s2) {
+inline absl::StatusOr<uint32_t> AccelerationToWire(const std::string& field, double mm_s2) {
   auto v = ToFixed(field, mm_s2, kAccelerationPerMmS2, 0, 0x7FFF'FFFF);
   if (!v.ok()) return v.status();
   return static_cast<uint32_t>(*v);

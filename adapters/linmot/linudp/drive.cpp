@@ -12,6 +12,7 @@
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
 #include "adapters/linmot/mc/control_word.h"
+#include "adapters/core/units.h"
 #include "adapters/linmot/mc/error_codes.h"
 #include "adapters/linmot/mc/warn_word.h"
 
@@ -45,45 +46,7 @@ Duration RtcTimeout(uint8_t command_id, Duration normal) {
 // The RTC status riding on an error (STYLE.md §6 "Errors": the drive's own code as payload).
 constexpr char kRtcStatusPayloadUrl[] = "type.drivegw.dev/linmot.linudp.RtcStatus";
 
-// Checked mm <-> wire conversions with the scales of adapters/core/units.h (linmot-mc.md §0.4).
-// Local because units.h does not compile against Debian's abseil 20220623, whose
-// absl::string_view is not std::string_view (StrCat(std::string_view, ...) has no overload);
-// reported, to be replaced by units.h once fixed.
-namespace units {
-constexpr double kPositionPerMm = 10'000.0;     // 0.1 µm
-constexpr double kVelocityPerMmS = 1'000.0;     // 1E-6 m/s
-constexpr double kAccelerationPerMmS2 = 100.0;  // 1E-5 m/s²
-
-absl::StatusOr<int64_t> ToFixed(const std::string& field, double value, double scale, int64_t lo,
-                                int64_t hi) {
-  if (!std::isfinite(value)) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": ", value, " is not a finite number"));
-  }
-  const double scaled = std::nearbyint(value * scale);
-  if (scaled < static_cast<double>(lo) || scaled > static_cast<double>(hi)) {
-    return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " is outside the wire range [",
-                                              static_cast<double>(lo) / scale, ", ",
-                                              static_cast<double>(hi) / scale, "]"));
-  }
-  return static_cast<int64_t>(scaled);
-}
-absl::StatusOr<int32_t> PositionToWire(const std::string& field, double mm) {
-  DGW_ASSIGN_OR_RETURN(const int64_t v,
-                       ToFixed(field, mm, kPositionPerMm, std::numeric_limits<int32_t>::min(),
-                               std::numeric_limits<int32_t>::max()));
-  return static_cast<int32_t>(v);
-}
-absl::StatusOr<uint32_t> VelocityToWire(const std::string& field, double mm_s) {
-  DGW_ASSIGN_OR_RETURN(const int64_t v, ToFixed(field, mm_s, kVelocityPerMmS, 0, 0x7FFF'FFFF));
-  return static_cast<uint32_t>(v);
-}
-absl::StatusOr<uint32_t> AccelerationToWire(const std::string& field, double mm_s2) {
-  DGW_ASSIGN_OR_RETURN(const int64_t v,
-                       ToFixed(field, mm_s2, kAccelerationPerMmS2, 0, 0x7FFF'FFFF));
-  return static_cast<uint32_t>(v);
-}
-double PositionFromWire(int64_t v) { return static_cast<double>(v) / kPositionPerMm; }
-}  // namespace units
+double PositionFromWire(int64_t v) { return static_cast<double>(v) / units::kPositionPerMm; }
 
 std::string Hex16(uint16_t v) { return absl::StrFormat("0x%04X", v); }
 
@@ -311,7 +274,18 @@ Request LinMotUdpDrive::BuildRequest() noexcept {
   r.rtc = rtc_block_;  // the identical block every telegram while a transaction is open
   cw_in_flight_ = cw_generation_;
   rtc_in_flight_ = rtc_generation_;
+  urgent_ = false;
   return r;
+}
+
+bool LinMotUdpDrive::HasUrgentRequest() noexcept {
+  std::lock_guard lock(mu_);
+  return urgent_;
+}
+
+void LinMotUdpDrive::MarkUrgentLocked() {
+  urgent_ = true;
+  if (session_) session_->Expedite();
 }
 
 void LinMotUdpDrive::OnReply(const Reply& reply, TimePoint received) noexcept {
@@ -338,8 +312,8 @@ void LinMotUdpDrive::OnReply(const Reply& reply, TimePoint received) noexcept {
   const PositionSample& ref = history_.front();
   const double dt = ToSeconds(received - ref.t);
   if (dt > 0) {
-    velocity_mm_s_ = units::PositionFromWire(int64_t{s.actual_position} - ref.actual) / dt;
-    demand_velocity_mm_s_ = units::PositionFromWire(int64_t{s.demand_position} - ref.demand) / dt;
+    velocity_mm_s_ = PositionFromWire(int64_t{s.actual_position} - ref.actual) / dt;
+    demand_velocity_mm_s_ = PositionFromWire(int64_t{s.demand_position} - ref.demand) / dt;
   } else if (history_.size() == 1) {
     velocity_mm_s_ = demand_velocity_mm_s_ = 0;
   }
@@ -550,8 +524,8 @@ DriveStatus LinMotUdpDrive::BuildStatusLocked() const {
   s.native.text = mc::MainStateName(ms);
   s.native.status_word = sample_.status_word.raw;
   s.native.warn_word = sample_.warn_word;
-  s.position_mm = units::PositionFromWire(sample_.actual_position);
-  s.demand_position_mm = units::PositionFromWire(sample_.demand_position);
+  s.position_mm = PositionFromWire(sample_.actual_position);
+  s.demand_position_mm = PositionFromWire(sample_.demand_position);
   s.velocity_mm_s = velocity_mm_s_;
   s.homed = sample_.status_word.homed();
   s.in_target = sample_.status_word.in_target_position();
@@ -598,13 +572,17 @@ void LinMotUdpDrive::DisarmMcBlockLocked(uint8_t count) {
           count) {
     return;
   }
-  if (auto nop = mc::EncodeMotionCommand(mc::NoOperation(), count); nop.ok()) mc_block_ = *nop;
+  if (auto nop = mc::EncodeMotionCommand(mc::NoOperation(), count); nop.ok()) {
+    mc_block_ = *nop;
+    MarkUrgentLocked();
+  }
 }
 
 void LinMotUdpDrive::SetControlWordLocked(uint16_t cw) {
   if (control_word_ == cw) return;
   control_word_ = cw;
   ++cw_generation_;
+  MarkUrgentLocked();
   log::Debug("control_word", log::Fields().Add("drive", name_).Add("cw", Hex16(cw)));
 }
 
@@ -860,7 +838,7 @@ absl::StatusOr<mc::McCommand> LinMotUdpDrive::BuildMotion(const MotionCommand& c
                                                           bool& needs_in_target,
                                                           Duration& planned) {
   const AxisConfig& axis = config().axis;
-  const double demand_mm = units::PositionFromWire(sample_.demand_position);
+  const double demand_mm = PositionFromWire(sample_.demand_position);
   const double v0 = demand_velocity_mm_s_;
   struct Profile {
     uint32_t v, a, d;
@@ -979,6 +957,7 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
   const CommandInfo info = StartCommand(kind, true);  // aborts the running motion's handle
   homing_.reset();
   mc_block_ = *block;
+  MarkUrgentLocked();
   const TimePoint now = clock_.Now();
   MotionTracker m;
   m.id = info.id;
@@ -1045,6 +1024,7 @@ absl::StatusOr<RtcReply> LinMotUdpDrive::RtcTransactLocked(std::unique_lock<std:
   const uint8_t echo = sample_.rtc ? (sample_.rtc->count & 0x0F) : 0;
   const uint8_t count = mc::NextCount(echo);
   rtc_block_ = RtcRequest{count, command_id, word2, word3, word4};
+  MarkUrgentLocked();
   const uint64_t gen = ++rtc_generation_;
   // done when the echo equals the count and the status is no longer busy.
   const Wait w = WaitLocked(lock, deadline, [&] {
@@ -1083,6 +1063,7 @@ absl::StatusOr<RtcReply> LinMotUdpDrive::RtcRestart(Duration timeout) {
                             .status());
   }
   rtc_block_ = RtcRequest{0, static_cast<uint8_t>(RtcCommand::kRestartDrive), 0, 0, 0};
+  MarkUrgentLocked();
   const uint64_t gen = ++rtc_generation_;
   const uint64_t timeouts_before = timeouts_;
   std::optional<uint64_t> replies_at_silence;

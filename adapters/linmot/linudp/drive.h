@@ -107,6 +107,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
 
   // SessionPeer (I/O thread, under the session lock).
   Request BuildRequest() noexcept override;
+  bool HasUrgentRequest() noexcept override;
   void OnReply(const Reply& reply, TimePoint received) noexcept override;
   void OnTimeout() noexcept override;
   void OnLinkChange(LinkState state) noexcept override;
@@ -117,6 +118,8 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   void EvaluateHomingLocked(TimePoint now);
   void PublishLocked(bool force);
   DriveStatus BuildStatusLocked() const;
+  // Flags a changed outbound state and wakes the session so it leaves at once (decision 006).
+  void MarkUrgentLocked();
   void SetControlWordLocked(uint16_t cw);
   // Replaces an unaccepted MC block of `count` by No Operation with the same count.
   void DisarmMcBlockLocked(uint8_t count);
@@ -176,6 +179,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   // Outbound state: what every telegram carries (linmot-linudp.md §3).
   std::optional<uint16_t> control_word_;  // unset: no control word block (linudp §6.8)
   uint64_t cw_generation_ = 0;
+  bool urgent_ = false;  // outbound state changed since the last telegram (decision 006)
   uint64_t cw_in_flight_ = 0;  // generation carried by the outstanding telegram
   uint64_t cw_answered_ = 0;   // generation carried by the telegram the newest reply answered
   std::optional<mc::McBlock> mc_block_;

@@ -187,7 +187,9 @@ Duration Session::ServiceLocked(TimePoint now) {
         SetLinkLocked(p, LinkState::kOffline);
       }
     }
-    if (!p.outstanding && now >= p.next_send) {
+    // A-07 keeps one request outstanding per drive; the cycle paces the status exchange, an
+    // urgent command leaves as soon as the line is free (decision 006).
+    if (!p.outstanding && (now >= p.next_send || p.peer->HasUrgentRequest())) {
       const Request request = p.peer->BuildRequest();
       const std::vector<uint8_t> bytes = EncodeRequest(request);
       ++p.counters.telegrams_sent;

@@ -52,6 +52,9 @@ class SessionPeer {
   virtual Request BuildRequest() noexcept = 0;
   // A valid reply to the outstanding request, with the time it was received.
   virtual void OnReply(const Reply& reply, TimePoint received) noexcept = 0;
+  // True when the peer has a new command waiting (control word, MC or RTC block): the session
+  // then sends at once instead of at the next cycle (docs/decisions/006-commands-leave-at-once.md).
+  virtual bool HasUrgentRequest() noexcept { return false; }
   // A request went unanswered for reply_timeout.
   virtual void OnTimeout() noexcept {}
   // kOnline on the first reply and on recovery, kOffline after lost_after_timeouts consecutive
@@ -87,6 +90,11 @@ class Session {
   // Removes a drive. When it returns, no callback of that peer runs or will run. Unknown ids
   // are ignored.
   void Unregister(PeerId id);
+
+  // Wakes the I/O thread so that a peer's urgent request leaves without waiting for its cycle
+  // (still one outstanding request per drive, A-07). Lock-free: callable from any thread,
+  // with any lock held.
+  void Expedite() { socket_.Wake(); }
 
   // Stops the I/O thread (wakes it and joins) and shuts the socket; idempotent, also done by the
   // destructor. Peers get no further callbacks.
