@@ -466,6 +466,13 @@ class StreamReactor final : public grpc::ClientBidiReactor<grpc::ByteBuffer, grp
     StartWriteLast(&request_, grpc::WriteOptions());
     StartCall();
     sink_->OnStreamStarted(shared_from_this());
+    bool release;
+    {
+      std::lock_guard lock(mu_);
+      started_ = true;
+      release = release_requested_;
+    }
+    if (release) ReleaseHold();  // CancelAll came before the hold existed
   }
 
   void RequestNext() noexcept override {
@@ -482,6 +489,10 @@ class StreamReactor final : public grpc::ClientBidiReactor<grpc::ByteBuffer, grp
  private:
   void ReleaseHold() noexcept {
     std::lock_guard lock(mu_);  // recursive: RemoveHold may run OnDone inline
+    if (!started_) {
+      release_requested_ = true;
+      return;
+    }
     if (hold_released_) return;
     hold_released_ = true;
     RemoveHold();
@@ -522,6 +533,8 @@ class StreamReactor final : public grpc::ClientBidiReactor<grpc::ByteBuffer, grp
   std::shared_ptr<Router::Inflight> inflight_;
   std::shared_ptr<StreamReactor> self_;  // from Start until OnDone
   std::recursive_mutex mu_;              // orders StartRead against the hold's release
+  bool started_ = false;                 // the hold exists (Start is past AddHold)
+  bool release_requested_ = false;       // Cancel before that
   bool hold_released_ = false;
 };
 
