@@ -30,6 +30,17 @@ struct LinUdpConfig {
   int lost_after_timeouts = 5;
 };
 
+// One classic CAN bus (docs/config.md "can"; docs/decisions/801-can-channel.md). Opened by
+// transport::OpenCanChannel.
+struct CanBusConfig {
+  enum class Kind { kSocketCan, kUdpMulticast };
+  Kind kind = Kind::kUdpMulticast;     // the bus that works without kernel CAN
+  std::string interface = "can0";      // kSocketCan: network interface name
+  std::string group = "239.74.163.2";  // kUdpMulticast: IPv4 multicast group (python-can default)
+  uint16_t port = 43113;               // kUdpMulticast: UDP port (python-can default)
+  std::string trace_file;              // candump -l log of every frame in and out; empty: off
+};
+
 struct TimeoutConfig {
   std::chrono::milliseconds request{2000};  // Enable/Disable/Acknowledge/parameter access
   std::chrono::milliseconds accept{100};    // motion command acceptance (count echo), D-11
@@ -42,6 +53,8 @@ struct DriveConfig {
   AxisConfig axis;
   TimeoutConfig timeouts;
   std::optional<LinUdpConfig> linudp;
+  std::optional<CanBusConfig> can;  // CAN families (linmot-devicenet, later trinamic, canopen)
+  std::optional<uint8_t> mac_id;    // DeviceNet MAC ID 0..63
 };
 
 }  // namespace drivegw
