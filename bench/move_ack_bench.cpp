@@ -25,6 +25,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using drivegw::server::Gateway;
 
+int g_errors = 0;  // failed moves (time-outs), reported with the results
+
 struct Stats {
   double p50_us = 0, p99_us = 0;
 };
@@ -148,8 +150,34 @@ std::vector<double> MeasureMoveAck(Gateway& gw, int n) {
     grpc::Status s = stub->MoveAbsolute(&ctx, req, &h);
     const auto t1 = Clock::now();
     if (!s.ok()) {
+      // A loaded machine can miss the 100 ms acceptance time-out (D-11); count, do not die.
+      ++g_errors;
       std::fprintf(stderr, "move %d failed: %s\n", i, s.error_message().c_str());
-      std::exit(1);
+      continue;
+    }
+    if (i >= 50) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+  }
+  return us;
+}
+
+// The same call without gRPC: the core's MoveAbsolute straight into the drive and the session,
+// to split the gateway's own cost from the gRPC hop.
+std::vector<double> MeasureCoreMoveAck(Gateway& gw, int n) {
+  std::vector<double> us;
+  drivegw::server::CallContext cc;
+  for (int i = 0; i < n + 50; ++i) {
+    drivegw::v1::MoveAbsoluteRequest req;
+    req.set_name("drives/x1");
+    req.set_position_mm(i % 2 == 0 ? 40 : 60);
+    req.set_velocity_mm_s(1000);
+    req.set_acceleration_mm_s2(10000);
+    const auto t0 = Clock::now();
+    auto h = gw.core().MoveAbsolute(req, cc);
+    const auto t1 = Clock::now();
+    if (!h.ok()) {
+      ++g_errors;
+      std::fprintf(stderr, "core move %d failed: %s\n", i, std::string(h.status().message()).c_str());
+      continue;
     }
     if (i >= 50) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
   }
@@ -174,25 +202,30 @@ int main(int argc, char** argv) {
     return 1;
   }
   // Interleave the three measurements in rounds so machine noise hits all of them alike.
-  std::vector<double> echo, udp, move;
+  std::vector<double> echo, udp, move, core;
   const int rounds = 4;
   for (int r = 0; r < rounds; ++r) {
     auto e = MeasureGrpcEcho(n / rounds);
     auto u = MeasureUdpRoundTrip(*(*gw)->demo_simulator("x2"), n / rounds);
     auto m = MeasureMoveAck(**gw, n / rounds);
+    auto c = MeasureCoreMoveAck(**gw, n / rounds);
+    core.insert(core.end(), c.begin(), c.end());
     echo.insert(echo.end(), e.begin(), e.end());
     udp.insert(udp.end(), u.begin(), u.end());
     move.insert(move.end(), m.begin(), m.end());
   }
-  const Stats se = Summarize(echo), su = Summarize(udp), sm = Summarize(move);
+  const Stats se = Summarize(echo), su = Summarize(udp), sm = Summarize(move), sc = Summarize(core);
   std::printf("%-38s %10s %10s\n", "measurement (n per row)", "p50 us", "p99 us");
   std::printf("%-38s %10.1f %10.1f\n", "baseline: bare gRPC unary echo", se.p50_us, se.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "baseline: bare LinUDP round trip", su.p50_us, su.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "baseline sum (echo + round trip)", se.p50_us + su.p50_us, se.p99_us + su.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "MoveAbsolute acknowledged (gateway)", sm.p50_us, sm.p99_us);
+  std::printf("%-38s %10.1f %10.1f\n", "  of which without gRPC (core direct)", sc.p50_us, sc.p99_us);
   std::printf("ratio p50 %.2f  p99 %.2f  (target <= 1.3), n=%zu\n", sm.p50_us / (se.p50_us + su.p50_us),
               sm.p99_us / (se.p99_us + su.p99_us), move.size());
+  std::printf("failed moves: %d of %zu\n", g_errors, move.size() + core.size() + static_cast<size_t>(g_errors));
   (*gw)->Stop();
   std::filesystem::remove_all(tmpl);
-  return 0;
+  // More than 5 % failures means the measurement is meaningless.
+  return g_errors * 20 > static_cast<int>(move.size() + core.size()) ? 1 : 0;
 }
