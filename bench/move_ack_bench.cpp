@@ -32,6 +32,7 @@ struct Stats {
 };
 
 Stats Summarize(std::vector<double> us) {
+  if (us.empty()) return {};
   std::sort(us.begin(), us.end());
   auto at = [&](double q) { return us[static_cast<size_t>(q * static_cast<double>(us.size() - 1))]; };
   return {at(0.50), at(0.99)};
