@@ -1,11 +1,13 @@
 // End to end over real sockets: the demo gateway (embedded simulated LinMot drives on loopback
 // UDP, SQLite file) driven through gRPC and through REST.
+#include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>
+#include <future>
 #include <thread>
 
 #include "drivegw/v1/drive.grpc.pb.h"
@@ -163,6 +165,25 @@ TEST_F(GatewayE2eTest, MoveAbsolute_VelocityAboveAxis_BadRequestNamesField) {
   ASSERT_TRUE(details.details(0).UnpackTo(&br));
   ASSERT_EQ(br.field_violations_size(), 1);
   EXPECT_EQ(br.field_violations(0).field(), "move_absolute.velocity_mm_s");
+}
+
+TEST_F(GatewayE2eTest, HealthCheck_Serving) {
+  // grpc.health.v1.Health/Check with an empty HealthCheckRequest (service "" = the server).
+  grpc::GenericStub stub(channel_);
+  grpc::Slice empty("");
+  grpc::ByteBuffer in(&empty, 1), out;
+  grpc::ClientContext ctx;
+  std::promise<grpc::Status> done;
+  stub.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &in, &out,
+                 [&](grpc::Status s) { done.set_value(s); });
+  grpc::Status s = done.get_future().get();
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  std::vector<grpc::Slice> slices;
+  ASSERT_TRUE(out.Dump(&slices).ok());
+  std::string bytes;
+  for (const auto& sl : slices) bytes.append(reinterpret_cast<const char*>(sl.begin()), sl.size());
+  // HealthCheckResponse{status: SERVING(1)} = field 1, varint 1.
+  EXPECT_EQ(bytes, std::string("\x08\x01", 2));
 }
 
 TEST_F(GatewayE2eTest, GetDrive_Unknown_NotFound) {
