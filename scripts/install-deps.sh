@@ -5,7 +5,8 @@ PKGS=(build-essential cmake ninja-build pkg-config ccache clang
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libboost-dev libboost-system-dev libsqlite3-dev sqlite3 libyaml-cpp-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev golang-grpc-gateway
-  python3-grpcio curl)
+  python3-grpcio curl
+  qemu-system-x86 busybox-static cpio kmod xz-utils)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

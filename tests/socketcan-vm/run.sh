@@ -217,7 +217,7 @@ stage_file() {
   strip --strip-debug -o "$STAGE$dest" "$src" 2>/dev/null || cp -L "$src" "$STAGE$dest"
   chmod a+rx "$STAGE$dest"
   is_elf "$src" || return 0
-  while IFS= read -r line; do
+  while read -r line; do
     case "$line" in
       *"=> not found"*) die "$src needs ${line%% *}, which ldd cannot find" ;;
       *"=> /"*) lib=${line#*=> }; lib=${lib%% (*} ;;
@@ -242,24 +242,24 @@ declare -A VMNAME=()
 for t in "${TESTS[@]}"; do
   read -r name kind rest <<<"$t"
   case "$kind" in gtest | exit) ;; *) die "test '$name': kind '$kind' is not gtest or exit" ;; esac
-  read -r -a words <<<"$rest"
-  out=()
-  for w in "${words[@]}"; do
-    if [ "${w:0:1}" = @ ]; then
-      p=${w:1}
-      [ "${p:0:1}" = / ] || p=$BUILD/$p
-      [ -f "$p" ] || die "test '$name': $p does not exist (build it first)"
-      b=$(basename "$p")
-      if [ -n "${VMNAME[$b]:-}" ] && [ "${VMNAME[$b]}" != "$p" ]; then
-        die "two different files named $b ($p, ${VMNAME[$b]})"
-      fi
-      VMNAME[$b]=$p
-      stage_file "$p" "/opt/dgw/bin/$b"
-      w=/opt/dgw/bin/$b
+  # Replace each @PATH word by the file's path in the VM; everything else stays byte for byte.
+  out=""
+  while [[ $rest =~ ^(([^@]*[[:space:]])?)@([^[:space:]]+)(.*)$ ]]; do
+    out+=${BASH_REMATCH[1]}
+    p=${BASH_REMATCH[3]}
+    rest=${BASH_REMATCH[4]}
+    [ "${p:0:1}" = / ] || p=$BUILD/$p
+    [ -f "$p" ] || die "test '$name': $p does not exist (build it first)"
+    b=$(basename "$p")
+    if [ -n "${VMNAME[$b]:-}" ] && [ "${VMNAME[$b]}" != "$p" ]; then
+      die "two different files named $b ($p, ${VMNAME[$b]})"
     fi
-    out+=("$w")
+    VMNAME[$b]=$p
+    stage_file "$p" "/opt/dgw/bin/$b"
+    out+=/opt/dgw/bin/$b
   done
-  echo "$name $kind ${out[*]}" >>"$STAGE/etc/dgw-tests"
+  out+=$rest
+  echo "$name $kind $out" >>"$STAGE/etc/dgw-tests"
 done
 cat >"$STAGE/etc/dgw-vm.conf" <<EOF
 DGW_MODULES='$(cat "$KDIR/load-order")'
@@ -281,7 +281,7 @@ set +e
 timeout -k 5 "$VM_TIMEOUT" "$QEMU" -accel tcg -cpu max -m "$MEM" -smp 1 -nographic -no-reboot \
   -vga none -net none -kernel "$KDIR/vmlinuz" -initrd "$INITRD" \
   -append 'console=ttyS0 panic=-1 quiet' </dev/null 2>&1 |
-  sed -u 's/\r//g; s/\x1b\[[0-9;?]*[A-Za-z]//g; s/\x1b[c=>]//g' | tee "$LOG"
+  sed -u 's/\r//g; s/\x1b\[[0-9;?]*[A-Za-z]//g; s/\x1bc/\n/g; s/\x1b[=>]//g' | tee "$LOG"
 QRC=${PIPESTATUS[0]}
 set -e
 QEMU_SECS=$(secs_since "$T_BOOT")
