@@ -33,10 +33,16 @@ struct CanFilter {
 // CAN_RAW_FILTER_MAX (linux/can/raw.h).
 inline constexpr size_t kMaxCanFilters = 512;
 
+// OK when there are at most kMaxCanFilters and each id/mask fits its format; InvalidArgument
+// "can filters[2].mask: 0xFFFF exceeds 0x7FF (11-bit base format)" otherwise.
+absl::Status ValidateCanFilters(std::span<const CanFilter> filters);
+
 // Fault confinement state (ISO 11898-1 §12): error counters below 96 active, from 96 warning,
 // from 128 passive, above 255 bus-off. kDown: the interface is down, gone or not open.
 enum class CanBusState { kActive, kWarning, kPassive, kBusOff, kDown };
-std::string_view CanBusStateName(CanBusState state);  // "active", "warning", ... "down"
+// "active", "warning", "passive", "bus-off", "down" (a C string: Debian's absl::StrCat takes no
+// std::string_view).
+const char* CanBusStateName(CanBusState state);
 
 struct CanCounters {
   uint64_t tx = 0;                 // frames handed to the bus

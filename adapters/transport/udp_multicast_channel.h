@@ -1,0 +1,84 @@
+// A CAN bus over IPv4 UDP multicast that python-can's udp_multicast interface shares: one
+// msgpack-packed can.Message dict per datagram (docs/decisions/802-udp-multicast-can-bus.md).
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "adapters/transport/can_channel.h"
+#include "adapters/transport/can_frame.h"
+#include "adapters/transport/candump_trace.h"
+
+namespace drivegw::transport {
+
+// python-can 4.1 can/interfaces/udp_multicast/utils.py pack_message: a map of the 11 keys
+// timestamp (float64, seconds), arbitration_id, is_extended_id, is_remote_frame,
+// is_error_frame, channel (nil), dlc, data (bin; empty for RTR), is_fd, bitrate_switch,
+// error_state_indicator, in that order, shortest msgpack encodings (= msgpack-python's bytes).
+std::vector<uint8_t> EncodePythonCanMessage(const CanFrame& frame, double timestamp_s);
+
+// Accepts exactly what python-can's unpack_message(check=True) accepts for classic CAN: a
+// map whose keys are can.Message arguments (missing ones take can.Message's defaults, note
+// is_extended_id=True), dlc == len(data) unless RTR, ids within 11/29 bits, no trailing bytes.
+// InvalidArgument naming the key otherwise; Unimplemented for CAN FD frames (is_fd true).
+absl::StatusOr<CanFrame> DecodePythonCanMessage(std::span<const uint8_t> datagram);
+
+class UdpMulticastChannel final : public CanChannel {
+ public:
+  struct Options {
+    std::string group = "239.74.163.2";   // python-can UdpMulticastBus.DEFAULT_GROUP_IPv4
+    uint16_t port = 43113;                // python-can's default port
+    std::shared_ptr<CandumpTrace> trace;  // null: no trace
+  };
+
+  // Joins the group (TTL 1, loop on) and opens a sender socket. InvalidArgument for a group
+  // outside 224.0.0.0/4 or port 0; Unavailable with what to do when the host has no multicast
+  // route ("... add one: ip route add 224.0.0.0/4 dev lo").
+  static absl::StatusOr<std::unique_ptr<UdpMulticastChannel>> Open(Options options);
+
+  ~UdpMulticastChannel() override;
+  UdpMulticastChannel(const UdpMulticastChannel&) = delete;
+  UdpMulticastChannel& operator=(const UdpMulticastChannel&) = delete;
+
+  absl::Status Send(const CanFrame& frame) override;
+  absl::StatusOr<std::optional<CanFrame>> Receive(std::chrono::nanoseconds timeout) override;
+  void Wake() override;
+  absl::Status SetFilters(std::span<const CanFilter> filters) override;
+  CanBusState state() const override { return state_.load(std::memory_order_acquire); }
+  CanCounters counters() const override;
+  std::string name() const override { return name_; }
+
+  // The local UDP port frames leave from; datagrams from it are this channel's own (not
+  // returned by Receive, as a CAN controller does not receive its own frames).
+  uint16_t sender_port() const { return sender_port_; }
+
+ private:
+  UdpMulticastChannel() = default;
+  bool Accepts(const CanFrame& frame) const;
+
+  std::string name_;
+  int rx_fd_ = -1;            // bound to GROUP:PORT, member of GROUP
+  int tx_fd_ = -1;            // ephemeral port, connected to GROUP:PORT
+  int wake_fd_ = -1;          // eventfd: readable while a wake-up is pending
+  uint32_t sender_ipv4_ = 0;  // host order; getsockname of tx_fd_ after connect
+  uint16_t sender_port_ = 0;
+  std::shared_ptr<CandumpTrace> trace_;
+  std::atomic<CanBusState> state_{CanBusState::kActive};
+
+  mutable std::mutex filters_mu_;
+  std::vector<CanFilter> filters_;  // empty: accept all
+
+  std::atomic<uint64_t> tx_{0}, rx_{0}, tx_errors_{0}, rx_errors_{0}, error_frames_{0},
+      dropped_malformed_{0};
+};
+
+}  // namespace drivegw::transport
