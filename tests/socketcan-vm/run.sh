@@ -10,7 +10,7 @@
 set -euo pipefail
 
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
-CACHE=${DGW_VM_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/drivegw/socketcan-vm}
+CACHE=${DGW_VM_CACHE:-${XDG_CACHE_HOME:-${HOME:-/tmp}/.cache}/drivegw/socketcan-vm}
 VM_TIMEOUT=${DGW_VM_TIMEOUT:-180}          # hard limit for the whole VM run (host side), seconds
 TEST_TIMEOUT=${DGW_VM_TEST_TIMEOUT:-60}    # per test inside the VM, seconds
 MEM=${DGW_VM_MEM:-512}                     # MiB; the unpacked initramfs lives in it
