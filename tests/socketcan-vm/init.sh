@@ -65,6 +65,9 @@ verdict() {
 
 while read -r name kind cmd <&3; do
   case "$name" in '' | '#'*) continue ;; esac
+  # Every test starts with vcan0 present and up, whatever the previous one did to it.
+  ip link show vcan0 >/dev/null 2>&1 || ip link add dev vcan0 type vcan
+  ip link set up vcan0
   t0=$(uptime_s)
   echo "DGW-VM: --- $name ($kind): $cmd"
   rm -f /tmp/out /tmp/fifo
