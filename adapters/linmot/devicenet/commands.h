@@ -240,14 +240,16 @@ struct Command {
 
 // Gateway side, driven by the table. Errors (STYLE §6 "where: what"):
 //  NotFound "devicenet command 0x01: not in the command table";
-//  InvalidArgument "devicenet set_position_setpoint: needs a motor (A-D)", "... direct: not
-//  allowed in a Direct slot", "... is a system command, motor B given", "... undocumented
-//  (D-19)";
-//  OutOfRange "devicenet set_in_position_plus.in_position_plus: 1 below minimum 2" (only with
-//  check_range; tests send out-of-range values on purpose).
+//  OutOfRange when the value does not fit word 2 ("... 40000 exceeds Int16 max 32767").
+// With `strict` (the gateway's default) also:
+//  InvalidArgument "devicenet set_position_setpoint: needs exactly one motor (A-D)", "...: not
+//  allowed in a Direct slot", "...: system command, motor B given", "...: undocumented (D-19)";
+//  OutOfRange "devicenet set_in_position_plus.in_position_plus: 1 below minimum 2".
+// Non-strict encoding writes whatever the Command says (tests provoke coded errors with it);
+// a motor in a Direct slot is still rejected (bits 15..8 are reserved there, §7.3).
 // Don't-care words are sent as 0.
 absl::StatusOr<CommandSlot> EncodeCommand(const Command& command, Module module,
-                                          bool check_range = true);
+                                          bool strict = true);
 
 // What a drive makes of a received slot.
 struct DecodedCommand {
