@@ -6,12 +6,12 @@
 #include <grpcpp/grpcpp.h>
 
 #include <algorithm>
-#include <atomic>
 #include <condition_variable>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 
 #include "absl/strings/ascii.h"
@@ -274,12 +274,17 @@ grpc::ByteBuffer ToByteBuffer(const std::string& bytes) {
   return grpc::ByteBuffer(&slice, 1);
 }
 
-bool FromByteBuffer(const grpc::ByteBuffer& buffer, pb::Message* msg) {
+std::optional<std::string> BufferBytes(const grpc::ByteBuffer& buffer) {
   std::vector<grpc::Slice> slices;
-  if (!buffer.Dump(&slices).ok()) return false;
+  if (!buffer.Dump(&slices).ok()) return std::nullopt;
   std::string bytes;
   for (const auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
-  return msg->ParseFromString(bytes);
+  return bytes;
+}
+
+bool FromByteBuffer(const grpc::ByteBuffer& buffer, pb::Message* msg) {
+  const auto bytes = BufferBytes(buffer);
+  return bytes && msg->ParseFromString(*bytes);
 }
 
 // Response message -> JSON, or the part named by the rule's response_body.
@@ -575,8 +580,9 @@ absl::Status AddRoutes(const pb::MethodDescriptor* m, const google::api::HttpRul
       return absl::InvalidArgumentError(absl::StrCat(where, ": no pattern"));
   }
   auto tmpl = PathTemplate::Parse(path);
-  if (!tmpl.ok())
+  if (!tmpl.ok()) {
     return absl::InvalidArgumentError(absl::StrCat(where, ": ", tmpl.status().message()));
+  }
   route.path = *std::move(tmpl);
   for (const auto& var : route.path.variables()) {
     auto fields = ResolvePath(m->input_type(), var.field_path);
@@ -892,12 +898,7 @@ void Router::HandleHealth(const std::shared_ptr<ResponseSink>& sink) noexcept {
           503, absl::StrCat("gRPC channel not connected: ", status.error_message(), "\n"));
     }
     // grpc.health.v1.HealthCheckResponse: field 1 (status), varint; SERVING = 1.
-    std::vector<grpc::Slice> slices;
-    std::string bytes;
-    if (buffer.Dump(&slices).ok()) {
-      for (const auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
-    }
-    if (bytes.size() == 2 && bytes[0] == 0x08 && bytes[1] == 0x01) return TextResponse(200, "ok\n");
+    if (BufferBytes(buffer) == std::string("\x08\x01")) return TextResponse(200, "ok\n");
     return TextResponse(503, "gRPC server not serving\n");
   };
   grpc::GenericStub stub(options_.channel);
