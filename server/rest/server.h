@@ -39,7 +39,8 @@ class RestServer {
 
   uint16_t port() const;
   // Stops accepting, cancels streams and calls in flight, closes connections and joins the
-  // threads. Idempotent; not to be called from a handler thread.
+  // threads. Idempotent; not to be called from a handler thread. Call it before shutting
+  // down the gRPC server behind `channel` (docs/decisions/501-rest-transcoding.md, item 9).
   void Stop();
 
   struct Impl;
