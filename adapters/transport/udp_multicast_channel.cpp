@@ -41,6 +41,8 @@ constexpr char kRouteHint[] =
     "'ip route add 224.0.0.0/4 dev lo' (and 'ip link set lo multicast on'), or give the "
     "host a default route";
 
+constexpr std::chrono::milliseconds kSendWait{100};
+
 bool IsRouteError(int err) {
   return err == ENODEV || err == ENETUNREACH || err == EHOSTUNREACH || err == ENETDOWN;
 }
@@ -373,11 +375,18 @@ absl::Status UdpMulticastChannel::Send(const CanFrame& frame) {
   const double now_s =
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   const std::vector<uint8_t> bytes = EncodePythonCanMessage(frame, now_s);
+  // A full send buffer (a burst faster than the interface queue drains) is waited out for
+  // up to kSendWait, as a CAN controller's transmit queue would; python-can blocks outright.
+  const auto give_up = SteadyTime::now() + kSendWait;
   for (;;) {
     const ssize_t n = ::send(tx_fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL);
     if (n >= 0) break;
     if (errno == EINTR) continue;
     const int err = errno;
+    if ((err == EAGAIN || err == EWOULDBLOCK || err == ENOBUFS) && SteadyTime::now() < give_up) {
+      pollfd pfd{tx_fd_, POLLOUT, 0};
+      if (::poll(&pfd, 1, PollMillis(give_up - SteadyTime::now())) >= 0 || errno == EINTR) continue;
+    }
     tx_errors_.fetch_add(1, std::memory_order_relaxed);
     if (IsRouteError(err)) {
       state_.store(CanBusState::kDown, std::memory_order_release);

@@ -49,6 +49,8 @@ class UdpMulticastChannel final : public CanChannel {
   UdpMulticastChannel(const UdpMulticastChannel&) = delete;
   UdpMulticastChannel& operator=(const UdpMulticastChannel&) = delete;
 
+  // Waits up to 100 ms for room when the socket's send buffer is full (a burst), then
+  // Unavailable; the wait never spins (poll for POLLOUT).
   absl::Status Send(const CanFrame& frame) override;
   absl::StatusOr<std::optional<CanFrame>> Receive(std::chrono::nanoseconds timeout) override;
   void Wake() override;
