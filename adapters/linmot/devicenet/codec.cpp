@@ -730,6 +730,9 @@ absl::StatusOr<Fragmenter> Fragmenter::ForExplicit(std::span<const uint8_t> mess
     return Invalid("explicit fragmenter",
                    absl::StrCat(message.size(), " bytes fit one frame; send unfragmented"));
   }
+  if (message[0] & 0x80) {
+    return Invalid("explicit fragmenter", "header has the Frag bit set; pass the whole message");
+  }
   const uint8_t header = static_cast<uint8_t>(message[0] | 0x80);
   DGW_ASSIGN_OR_RETURN(auto fragments, Split(message.subspan(1), kExplicitFragmentData, header,
                                              "explicit fragmenter"));

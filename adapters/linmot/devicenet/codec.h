@@ -353,7 +353,8 @@ class Fragmenter {
   // InvalidArgument if the message fits in one unfragmented frame (<= 8 bytes) or needs more
   // than 64 fragments (decision 904).
   static absl::StatusOr<Fragmenter> ForIo(std::span<const uint8_t> message);
-  // `message` = full explicit message, header byte first (Frag = 0 in it; set on the wire).
+  // `message` = full explicit message, header byte first with Frag = 0 (InvalidArgument
+  // otherwise); the fragments carry it with Frag = 1.
   static absl::StatusOr<Fragmenter> ForExplicit(std::span<const uint8_t> message);
 
   size_t fragment_count() const { return fragments_.size(); }
