@@ -1,6 +1,7 @@
 // Parses and validates the gateway YAML; yaml-cpp exceptions stop here and become Status.
 #include "server/config/config.h"
 
+#include <arpa/inet.h>
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
@@ -31,6 +32,8 @@ constexpr int64_t kMaxRequestMs = 600000;  // 10 min
 constexpr int64_t kMaxAcceptMs = 60000;    // 1 min
 constexpr int64_t kMaxHomingMs = 3600000;  // 1 h
 constexpr size_t kMaxNameLength = 32;
+constexpr int64_t kMaxMacId = 63;           // DeviceNet MAC IDs are 0..63
+constexpr size_t kMaxInterfaceLength = 15;  // IFNAMSIZ - 1
 constexpr size_t kMaxErrors = 20;
 
 absl::string_view Av(std::string_view s) { return absl::string_view(s.data(), s.size()); }
@@ -303,6 +306,84 @@ void ParseLinUdp(const Section& drive, LinUdpConfig& out) {
   }
 }
 
+// Linux dev_valid_name: 1..15 characters, not "." or "..", no '/', ':' or white space.
+bool IsValidInterfaceName(std::string_view name) {
+  if (name.empty() || name.size() > kMaxInterfaceLength || name == "." || name == "..") {
+    return false;
+  }
+  return std::none_of(name.begin(), name.end(), [](char c) {
+    return c == '/' || c == ':' || c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\0';
+  });
+}
+
+// Dotted-quad IPv4 in 224.0.0.0/4 (python-can's udp_multicast default is 239.74.163.2).
+bool IsIpv4Multicast(const std::string& text) {
+  in_addr addr{};
+  return ::inet_pton(AF_INET, text.c_str(), &addr) == 1 && (ntohl(addr.s_addr) >> 28) == 0xE;
+}
+
+// can: {socketcan: {interface: can0}} | {udp: {group: G, port: P}}, optional trace: FILE
+// (docs/config.md "can"; docs/decisions/801-can-channel.md).
+void ParseCan(const Section& drive, CanBusConfig& out) {
+  const YAML::Node node = *drive.Get("can");
+  const Section s(node, drive.Child("can"), {"socketcan", "udp", "trace"}, drive.errors());
+  if (!node.IsMap()) {
+    if (node.IsNull()) {
+      s.errors().Add(s.Label(), "needs exactly one of socketcan, udp", node);
+    }
+    return;
+  }
+  const bool socketcan = s.Has("socketcan");
+  const bool udp = s.Has("udp");
+  if (socketcan == udp) {
+    s.errors().Add(s.Label(),
+                   socketcan ? "has both socketcan and udp; a drive is on one bus"
+                             : "needs exactly one of socketcan, udp",
+                   node);
+  }
+  if (socketcan) {
+    out.kind = CanBusConfig::Kind::kSocketCan;
+    const YAML::Node sub = *s.Get("socketcan");
+    const Section sc(sub, s.Child("socketcan"), {"interface"}, s.errors());
+    if (sub.IsNull() || sub.IsMap()) {
+      if (!sub.IsMap()) {
+        sc.errors().Add(sc.Child("interface"), "required", YAML::Node());
+      } else if (sc.String("interface", out.interface, /*required=*/true) &&
+                 !IsValidInterfaceName(out.interface)) {
+        sc.errors().Add(sc.Child("interface"),
+                        absl::StrCat("'", out.interface,
+                                     "' is not a network interface name (1..15 characters, no "
+                                     "'/', ':' or spaces)"),
+                        *sc.Get("interface"));
+      }
+    }
+  } else if (udp) {
+    out.kind = CanBusConfig::Kind::kUdpMulticast;
+    const YAML::Node sub = *s.Get("udp");
+    const Section u(sub, s.Child("udp"), {"group", "port"}, s.errors());
+    if (sub.IsMap()) {  // "udp:" alone takes python-can's defaults
+      if (u.String("group", out.group) && !IsIpv4Multicast(out.group)) {
+        u.errors().Add(
+            u.Child("group"),
+            absl::StrCat("'", out.group, "' is not an IPv4 multicast address (224.0.0.0/4)"),
+            *u.Get("group"));
+      }
+      int64_t port = 0;
+      if (u.Int("port", 1, kMaxPort, port)) out.port = static_cast<uint16_t>(port);
+    }
+  }
+  if (s.String("trace", out.trace_file) && out.trace_file.empty()) {
+    s.errors().Add(s.Child("trace"), "must not be empty (omit the key to trace nothing)",
+                   *s.Get("trace"));
+  }
+}
+
+// "socketcan:can0" / "udp:239.74.163.2:43113": which drives share a bus.
+std::string BusKey(const CanBusConfig& can) {
+  if (can.kind == CanBusConfig::Kind::kSocketCan) return absl::StrCat("socketcan:", can.interface);
+  return absl::StrCat("udp:", can.group, ":", can.port);
+}
+
 void ParseAxis(const Section& drive, AxisConfig& out) {
   auto node = drive.Get("axis");
   if (!node) {
@@ -376,6 +457,7 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
   }
   std::map<std::string, size_t> names;                         // name -> index
   std::map<std::pair<std::string, uint16_t>, size_t> targets;  // linudp host:port -> index
+  std::map<std::pair<std::string, uint8_t>, size_t> mac_ids;   // (CAN bus, MAC ID) -> index
   for (size_t i = 0; i < node.size(); ++i) {
     const YAML::Node entry = node[i];
     const std::string path = absl::StrCat("drives[", i, "]");
@@ -383,7 +465,8 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
       errors.Add(path, absl::StrCat("expected a mapping, got ", KindName(entry)), entry);
       continue;
     }
-    const Section s(entry, path, {"name", "family", "linudp", "axis", "timeouts"}, errors);
+    const Section s(entry, path, {"name", "family", "linudp", "can", "mac_id", "axis", "timeouts"},
+                    errors);
     DriveConfig drive;
     if (s.String("name", drive.name, /*required=*/true)) {
       if (!IsValidName(drive.name)) {
@@ -415,6 +498,30 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
     } else if (drive.family == "linmot") {
       // linmot-linudp.md §1: the LinMot family talks LinUDP, so it needs the drive's address.
       errors.Add(s.Child("linudp"), "required for family linmot", YAML::Node());
+    }
+    if (s.Has("can")) {
+      drive.can.emplace();
+      ParseCan(s, *drive.can);
+    } else if (drive.family == "linmot-devicenet") {
+      // linmot-devicenet.md: DeviceNet is a CAN protocol, so the drive needs its bus.
+      errors.Add(s.Child("can"), "required for family linmot-devicenet", YAML::Node());
+    }
+    int64_t mac_id = 0;
+    if (s.Int("mac_id", 0, kMaxMacId, mac_id)) {
+      drive.mac_id = static_cast<uint8_t>(mac_id);
+      if (drive.can) {
+        // DeviceNet's duplicate MAC ID check would take the second drive off the bus.
+        const std::string bus = BusKey(*drive.can);
+        auto [it, fresh] = mac_ids.emplace(std::make_pair(bus, *drive.mac_id), i);
+        if (!fresh) {
+          errors.Add(
+              s.Child("mac_id"),
+              absl::StrCat(mac_id, " is also the MAC ID of drives[", it->second, "] on ", bus),
+              *s.Get("mac_id"));
+        }
+      }
+    } else if (!s.Has("mac_id") && drive.family == "linmot-devicenet") {
+      errors.Add(s.Child("mac_id"), "required for family linmot-devicenet (0..63)", YAML::Node());
     }
     ParseAxis(s, drive.axis);
     ParseTimeouts(s, drive.timeouts);

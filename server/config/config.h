@@ -13,8 +13,8 @@
 namespace drivegw::config {
 
 // Drive families the composition root can build; each new family appends its name here
-// (later: "linmot-devicenet", "trinamic", "stober").
-inline constexpr std::string_view kKnownFamilies[] = {"linmot"};
+// (later: "trinamic", "stober"). linmot-devicenet requires `can:` and `mac_id`.
+inline constexpr std::string_view kKnownFamilies[] = {"linmot", "linmot-devicenet"};
 
 // Larger inputs are refused before parsing (bounds parser work; a real config is a few KiB).
 inline constexpr size_t kMaxConfigBytes = 1 << 20;

@@ -224,7 +224,7 @@ TEST(ParseConfigTest, DuplicateName_PointsAtFirst) {
 
 TEST(ParseConfigTest, UnknownFamily_ListsKnownOnes) {
   EXPECT_THAT(ErrorOf(OneDriveWith("family: linmot", "family: foo")).message(),
-              HasSubstr("drives[0].family: 'foo' is not one of [linmot]"));
+              HasSubstr("drives[0].family: 'foo' is not one of [linmot, linmot-devicenet]"));
 }
 
 TEST(ParseConfigTest, FamilyList_IsAParameter) {
@@ -345,6 +345,158 @@ TEST(ParseConfigTest, Timeouts_Checked) {
               HasSubstr("drives[0].timeouts.accept_ms: 60001 exceeds 60000"));
   EXPECT_THAT(with("homing_ms: -5"), HasSubstr("drives[0].timeouts.homing_ms: -5 is below 1"));
   EXPECT_THAT(with("homing: 5"), HasSubstr("drives[0].timeouts.homing: unknown key"));
+}
+
+// ---- CAN bus and DeviceNet MAC ID (docs/config.md "can") ----
+
+constexpr char kDeviceNetDrive[] = R"(
+drives:
+  - name: dn1
+    family: linmot-devicenet
+    can:
+      socketcan: {interface: can0}
+    mac_id: 5
+    axis: {min_mm: 0, max_mm: 150, max_velocity_mm_s: 2000, max_acceleration_mm_s2: 20000}
+)";
+
+std::string DeviceNetWith(std::string_view from, std::string_view to) {
+  std::string text(kDeviceNetDrive);
+  EXPECT_NE(text.find(std::string(from)), std::string::npos) << from;
+  return absl::StrReplaceAll(text, {{absl::string_view(from.data(), from.size()),
+                                     absl::string_view(to.data(), to.size())}});
+}
+
+TEST(ParseConfigTest, CanSocketcan_InterfaceAndMacId) {
+  auto cfg = ParseConfig(kDeviceNetDrive);
+  ASSERT_TRUE(cfg.ok()) << cfg.status();
+  const DriveConfig& d = cfg->drives[0];
+  ASSERT_TRUE(d.can.has_value());
+  EXPECT_EQ(d.can->kind, CanBusConfig::Kind::kSocketCan);
+  EXPECT_EQ(d.can->interface, "can0");
+  EXPECT_EQ(d.can->trace_file, "");
+  EXPECT_EQ(d.mac_id, std::optional<uint8_t>(5));
+  EXPECT_FALSE(d.linudp.has_value());
+}
+
+TEST(ParseConfigTest, CanUdp_GroupPortTrace) {
+  auto cfg = ParseConfig(
+      DeviceNetWith("socketcan: {interface: can0}",
+                    "udp: {group: 239.1.2.3, port: 5000}\n      trace: /var/log/drivegw/can.log"));
+  ASSERT_TRUE(cfg.ok()) << cfg.status();
+  const CanBusConfig& can = *cfg->drives[0].can;
+  EXPECT_EQ(can.kind, CanBusConfig::Kind::kUdpMulticast);
+  EXPECT_EQ(can.group, "239.1.2.3");
+  EXPECT_EQ(can.port, 5000);
+  EXPECT_EQ(can.trace_file, "/var/log/drivegw/can.log");
+}
+
+TEST(ParseConfigTest, CanUdp_EmptyTakesPythonCanDefaults) {
+  for (const char* udp : {"udp:", "udp: {}"}) {
+    auto cfg = ParseConfig(DeviceNetWith("socketcan: {interface: can0}", udp));
+    ASSERT_TRUE(cfg.ok()) << udp << ": " << cfg.status();
+    EXPECT_EQ(cfg->drives[0].can->group, "239.74.163.2");
+    EXPECT_EQ(cfg->drives[0].can->port, 43113);
+  }
+}
+
+TEST(ParseConfigTest, CanUdpGroup_MustBeMulticast) {
+  EXPECT_THAT(Message(DeviceNetWith("socketcan: {interface: can0}", "udp: {group: 10.0.0.1}")),
+              HasSubstr("drives[0].can.udp.group: '10.0.0.1' is not an IPv4 multicast address "
+                        "(224.0.0.0/4) (line 6, column 20)"));
+  EXPECT_THAT(Message(DeviceNetWith("socketcan: {interface: can0}", "udp: {group: bus.local}")),
+              HasSubstr("drives[0].can.udp.group: 'bus.local' is not an IPv4 multicast address"));
+  EXPECT_TRUE(
+      ParseConfig(DeviceNetWith("socketcan: {interface: can0}", "udp: {group: 224.0.0.1}")).ok());
+  EXPECT_FALSE(
+      ParseConfig(DeviceNetWith("socketcan: {interface: can0}", "udp: {group: 240.0.0.1}")).ok());
+}
+
+TEST(ParseConfigTest, CanUdpPort_Range) {
+  EXPECT_THAT(Message(DeviceNetWith("socketcan: {interface: can0}", "udp: {port: 0}")),
+              HasSubstr("drives[0].can.udp.port: 0 is below 1"));
+  EXPECT_THAT(Message(DeviceNetWith("socketcan: {interface: can0}", "udp: {port: 65536}")),
+              HasSubstr("drives[0].can.udp.port: 65536 exceeds 65535"));
+}
+
+TEST(ParseConfigTest, Can_ExactlyOneBus) {
+  EXPECT_THAT(Message(DeviceNetWith("socketcan: {interface: can0}",
+                                    "socketcan: {interface: can0}\n      udp: {}")),
+              HasSubstr("drives[0].can: has both socketcan and udp; a drive is on one bus"));
+  EXPECT_THAT(Message(DeviceNetWith("socketcan: {interface: can0}", "trace: x.log")),
+              HasSubstr("drives[0].can: needs exactly one of socketcan, udp"));
+  EXPECT_THAT(Message(DeviceNetWith("can:\n      socketcan: {interface: can0}", "can:")),
+              HasSubstr("drives[0].can: needs exactly one of socketcan, udp"));
+  EXPECT_THAT(Message(DeviceNetWith("socketcan: {interface: can0}", "sockcan: {}")),
+              HasSubstr("drives[0].can.sockcan: unknown key (did you mean 'socketcan'?)"));
+}
+
+TEST(ParseConfigTest, CanSocketcanInterface_RequiredAndValid) {
+  EXPECT_THAT(Message(DeviceNetWith("socketcan: {interface: can0}", "socketcan:")),
+              HasSubstr("drives[0].can.socketcan.interface: required"));
+  EXPECT_THAT(Message(DeviceNetWith("socketcan: {interface: can0}", "socketcan: {}")),
+              HasSubstr("drives[0].can.socketcan.interface: required"));
+  EXPECT_THAT(Message(DeviceNetWith("interface: can0", "interface: a-very-long-ifname0")),
+              HasSubstr("drives[0].can.socketcan.interface: 'a-very-long-ifname0' is not a network "
+                        "interface name (1..15 characters, no '/', ':' or spaces)"));
+  EXPECT_THAT(Message(DeviceNetWith("interface: can0", "interface: 'can/0'")),
+              HasSubstr("is not a network interface name"));
+}
+
+TEST(ParseConfigTest, CanTrace_NotEmpty) {
+  EXPECT_THAT(Message(DeviceNetWith("socketcan: {interface: can0}",
+                                    "socketcan: {interface: can0}\n      trace: ''")),
+              HasSubstr("drives[0].can.trace: must not be empty (omit the key to trace nothing)"));
+}
+
+TEST(ParseConfigTest, DeviceNet_RequiresCanAndMacId) {
+  const std::string yaml = R"(
+drives:
+  - name: dn1
+    family: linmot-devicenet
+    axis: {min_mm: 0, max_mm: 150, max_velocity_mm_s: 2000, max_acceleration_mm_s2: 20000}
+)";
+  EXPECT_THAT(Message(yaml), HasSubstr("drives[0].can: required for family linmot-devicenet"));
+  EXPECT_THAT(Message(yaml),
+              HasSubstr("drives[0].mac_id: required for family linmot-devicenet (0..63)"));
+}
+
+TEST(ParseConfigTest, MacId_Range) {
+  EXPECT_THAT(Message(DeviceNetWith("mac_id: 5", "mac_id: 64")),
+              HasSubstr("drives[0].mac_id: 64 exceeds 63"));
+  EXPECT_THAT(Message(DeviceNetWith("mac_id: 5", "mac_id: -1")),
+              HasSubstr("drives[0].mac_id: -1 is below 0"));
+  EXPECT_THAT(Message(DeviceNetWith("mac_id: 5", "mac_id: five")),
+              HasSubstr("drives[0].mac_id: 'five' is not an integer"));
+  auto zero = ParseConfig(DeviceNetWith("mac_id: 5", "mac_id: 0"));
+  ASSERT_TRUE(zero.ok()) << zero.status();
+  EXPECT_EQ(zero->drives[0].mac_id, std::optional<uint8_t>(0));
+}
+
+TEST(ParseConfigTest, SameMacIdOnOneBus_Rejected_OtherBusFine) {
+  const std::string two = R"(
+drives:
+  - name: dn1
+    family: linmot-devicenet
+    can: {udp: {}}
+    mac_id: 7
+    axis: {min_mm: 0, max_mm: 150, max_velocity_mm_s: 2000, max_acceleration_mm_s2: 20000}
+  - name: dn2
+    family: linmot-devicenet
+    can: {udp: {port: BUSPORT}}
+    mac_id: 7
+    axis: {min_mm: 0, max_mm: 150, max_velocity_mm_s: 2000, max_acceleration_mm_s2: 20000}
+)";
+  EXPECT_THAT(Message(absl::StrReplaceAll(two, {{"BUSPORT", "43113"}})),
+              HasSubstr("drives[1].mac_id: 7 is also the MAC ID of drives[0] on "
+                        "udp:239.74.163.2:43113"));
+  EXPECT_TRUE(ParseConfig(absl::StrReplaceAll(two, {{"BUSPORT", "43114"}})).ok());
+}
+
+TEST(ParseConfigTest, LinMot_UnaffectedByCanKeys) {
+  auto cfg = ParseConfig(kOneDrive);
+  ASSERT_TRUE(cfg.ok());
+  EXPECT_FALSE(cfg->drives[0].can.has_value());
+  EXPECT_FALSE(cfg->drives[0].mac_id.has_value());
 }
 
 TEST(ParseConfigTest, SameDriveAddressTwice_Rejected) {
