@@ -39,7 +39,7 @@ class UdpSocket {
     // SO_REUSEADDR. On Linux this lets a second UDP socket bind the very same address while
     // the first is open (both set it) and the kernel then hands unicast datagrams to only one
     // of them; false makes such a collision an error (docs/decisions/202-udp-reuseaddr.md).
-    bool reuse_address = true;
+    bool reuse_address = false;
   };
 
   // Binds `local` (port 0 = ephemeral), non-blocking. Errors name the address and the errno

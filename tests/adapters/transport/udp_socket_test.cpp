@@ -102,9 +102,11 @@ TEST(UdpSocketBind, PortInUseWithoutReuse_Unavailable) {
 }
 
 TEST(UdpSocketBind, PortInUseWithReuse_SecondBindSucceeds) {
-  // Linux semantics of SO_REUSEADDR for UDP (docs/decisions/202-udp-reuseaddr.md).
-  UdpSocket first = BindLoopback();
-  auto second = UdpSocket::Bind(first.local_endpoint());
+  // Linux semantics of SO_REUSEADDR for UDP (docs/decisions/202-udp-reuseaddr.md): only when
+  // both sockets opt in.
+  auto first = UdpSocket::Bind(Endpoint{Endpoint::kLoopback, 0}, {.reuse_address = true});
+  ASSERT_TRUE(first.ok()) << first.status();
+  auto second = UdpSocket::Bind(first->local_endpoint(), {.reuse_address = true});
   EXPECT_TRUE(second.ok()) << second.status();
 }
 
