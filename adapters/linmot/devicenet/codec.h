@@ -20,7 +20,7 @@ namespace drivegw::linmot::devicenet {
 
 // ---------------------------------------------------------------------------------------------
 // CAN frame as this codec sees it (§5.1: classic CAN 2.0A data frames, 11-bit identifiers, DLC
-// 0..8, no remote frames). adapters/transport's CanFrame converts to and from it (decision 901).
+// 0..8, no remote frames). codec_can.h converts to and from transport::CanFrame (decision 901).
 
 inline constexpr uint8_t kMaxMacId = 63;           // §3.1 (seed lines 85, 202)
 inline constexpr uint16_t kMaxIdentifier = 0x7FF;  // 11 bits
