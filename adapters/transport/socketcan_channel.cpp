@@ -355,7 +355,11 @@ absl::StatusOr<std::optional<CanFrame>> SocketCanChannel::Receive(
       if (got->error) {
         OnErrorFrame(*got);
       } else {
-        if (state() == CanBusState::kDown) state_.store(CanBusState::kActive);  // it carries
+        if (state() == CanBusState::kDown) {  // frames arrive: the interface carries again
+          std::lock_guard lock(recovery_mu_);
+          backoff_.Reset();
+          state_.store(CanBusState::kActive, std::memory_order_release);
+        }
         rx_.fetch_add(1, std::memory_order_relaxed);
         if (options_.trace) options_.trace->Record(name(), *got, CanDirection::kRx);
         return got;
