@@ -56,7 +56,7 @@ class LinMotDnServer {
   void ClearFrames();
 
   // ---- fault injection (§12.8); all act at clock.Now() ----
-  // Poll commands are received (and feed the watchdog) but never answered.
+  // Poll commands are received (they feed the watchdog) but neither executed nor answered.
   void SetDropPolls(bool drop);
   // The next n complete poll commands are not answered.
   void DropNextPolls(uint32_t n);
