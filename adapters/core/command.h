@@ -54,7 +54,12 @@ struct LinMotRtcRequest {
   uint16_t word3 = 0;
   uint16_t word4 = 0;
 };
-using NativeRequest = std::variant<LinMotMcRequest, LinMotRtcRequest>;
+// LinMot DeviceNet general-purpose command (linmot-devicenet.md §8.1): the Addressed In slot.
+struct LinMotDnRequest {
+  uint16_t command = 0;  // word 1: motor select (15..12), T (7), command ID (6..0)
+  int32_t value = 0;     // word 2: -32768..65535 (signed or unsigned per command)
+};
+using NativeRequest = std::variant<LinMotMcRequest, LinMotRtcRequest, LinMotDnRequest>;
 
 struct NativeReply {
   uint64_t command_id = 0;  // command handle for motion commands, 0 otherwise
