@@ -1,5 +1,6 @@
-// drivegw-sim: runs simulated drives on real UDP sockets until SIGINT/SIGTERM (commissioning,
-// demos, manual tests of the gateway). Bad flags: message naming the flag on stderr, exit 2.
+// drivegw-sim: runs simulated drives on real UDP sockets or a CAN bus until SIGINT/SIGTERM
+// (commissioning, demos, manual tests of the gateway). Bad flags: message naming the flag on
+// stderr, exit 2.
 #include <signal.h>
 
 #include <cerrno>
@@ -22,6 +23,8 @@
 #include "adapters/linmot/mc/motion_command.h"
 #include "adapters/transport/endpoint.h"
 #include "sim/linmot/server.h"
+#include "sim/linmot_devicenet/cli.h"
+#include "sim/linmot_devicenet/server.h"
 
 namespace {
 
@@ -32,6 +35,7 @@ using drivegw::sim::linmot::SimOptions;
 constexpr int kUsageError = 2;
 
 constexpr const char* kUsage = R"(usage: drivegw-sim linmot [flags]
+       drivegw-sim linmot-devicenet [flags]   (drivegw-sim linmot-devicenet --help)
 
 Simulated LinMot drive(s) speaking LinUDP V2 on real UDP sockets (linmot-linudp.md, linmot-mc.md).
 
@@ -163,9 +167,13 @@ Flags ParseFlags(int argc, char** argv) {
       UsageError(absl::StrCat("unknown flag '", arg, "'"));
     }
   }
-  if (f.family.empty()) UsageError("missing the drive family (supported: linmot)");
-  if (f.family != "linmot")
-    UsageError(absl::StrCat("unknown family '", f.family, "' (supported: linmot)"));
+  if (f.family.empty()) {
+    UsageError("missing the drive family (supported: linmot, linmot-devicenet)");
+  }
+  if (f.family != "linmot") {
+    UsageError(
+        absl::StrCat("unknown family '", f.family, "' (supported: linmot, linmot-devicenet)"));
+  }
   if (f.port != 0 && f.port + f.count - 1 > 65535) {
     UsageError(absl::StrCat("--count: ", f.count, " drives from port ", f.port, " exceed 65535"));
   }
@@ -208,20 +216,120 @@ void PrintStatus(const std::vector<std::unique_ptr<LinMotServer>>& servers) {
   std::cout.flush();
 }
 
+// Blocks SIGINT/SIGTERM for every thread (taken synchronously by WaitForSignal).
+sigset_t BlockSignals() {
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  return signals;
+}
+
+// Waits for SIGINT/SIGTERM, calling `status` every status_every_s seconds (0: never).
+template <typename F>
+void WaitForSignal(const sigset_t& signals, double status_every_s, F status) {
+  while (true) {
+    int sig = 0;
+    if (status_every_s > 0) {
+      timespec timeout{};
+      timeout.tv_sec = static_cast<time_t>(status_every_s);
+      timeout.tv_nsec = static_cast<long>((status_every_s - timeout.tv_sec) * 1e9);
+      sig = sigtimedwait(&signals, nullptr, &timeout);
+      if (sig < 0) {
+        if (errno == EAGAIN) status();
+        continue;
+      }
+    } else if (sigwait(&signals, &sig) != 0) {
+      continue;
+    }
+    return;
+  }
+}
+
+// The family word: the first argument that is neither a flag nor a flag's value (every flag
+// but -h/--help takes a value).
+std::string FindFamily(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "-h" || arg == "--help") continue;
+    if (arg.rfind("--", 0) == 0) {
+      if (arg.find('=') == std::string::npos) ++i;
+      continue;
+    }
+    return arg;
+  }
+  return "";
+}
+
+// drivegw-sim linmot-devicenet: linmot-devicenet.md §12 on a CAN bus.
+int RunLinMotDeviceNet(int argc, char** argv) {
+  namespace dnsim = drivegw::sim::linmot_devicenet;
+  std::vector<std::string> args;
+  bool family_seen = false;
+  for (int i = 1; i < argc; ++i) {
+    if (!family_seen && std::string_view(argv[i]) == "linmot-devicenet") {
+      family_seen = true;
+      continue;
+    }
+    args.emplace_back(argv[i]);
+  }
+  auto flags = dnsim::ParseCliFlags(args);
+  if (!flags.ok()) UsageError(std::string(flags.status().message()));
+  if (flags->help) {
+    std::cout << dnsim::kCliUsage;
+    return 0;
+  }
+  const sigset_t signals = BlockSignals();
+  std::vector<std::unique_ptr<dnsim::LinMotDnServer>> servers;
+  for (int i = 0; i < flags->count; ++i) {
+    const dnsim::DnSimOptions o = dnsim::DriveOptions(*flags, i);
+    auto server = dnsim::LinMotDnServer::Start(o, SteadyClock::Instance());
+    if (!server.ok()) {
+      std::cerr << "drivegw-sim: " << server.status().message() << "\n";
+      for (auto& s : servers) s->Stop();
+      return 1;
+    }
+    std::cout << absl::StrFormat(
+        "linmot-devicenet %s MAC %d on %s (%s; consumed %d, produced %d bytes)\n", o.name,
+        (*server)->mac_id(), (*server)->bus_name(), o.dn_enable ? "enabled" : "DeviceNet disabled",
+        drivegw::linmot::devicenet::ConsumedSize(dnsim::PollLayout(o)),
+        drivegw::linmot::devicenet::ProducedSize(dnsim::PollLayout(o)));
+    servers.push_back(std::move(*server));
+  }
+  std::cout.flush();
+  WaitForSignal(signals, flags->status_every_s, [&] {
+    for (const auto& s : servers) {
+      const auto snap = s->Snapshot();
+      const auto& d = snap.device;
+      const auto& st = snap.stack;
+      std::cout << absl::StrFormat(
+          "%s mac=%d net=%s owner=%s poll=%s state=%s sl=0x%04X sh=0x%04X coded=0x%04X "
+          "pos=%.3f mm polls=%u malformed=%u\n",
+          s->options().name, st.mac_id, dnsim::NetworkStateName(st.network),
+          st.owner ? std::to_string(*st.owner) : std::string("-"),
+          dnsim::ConnectionStateName(st.poll_connection.state), dnsim::ControllerStateName(d.state),
+          d.status_low, d.status_high, d.coded_error, d.motors[0].actual_mm,
+          st.counters.polls_received, st.counters.malformed + snap.server.malformed);
+    }
+    std::cout.flush();
+  });
+  for (auto& s : servers) s->Stop();
+  std::cout << "drivegw-sim: stopped\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (FindFamily(argc, argv) == "linmot-devicenet") return RunLinMotDeviceNet(argc, argv);
   const Flags flags = ParseFlags(argc, argv);
   if (auto s = drivegw::sim::linmot::ValidateOptions(flags.sim); !s.ok()) {
     UsageError(FlagMessage(std::string(s.message())));
   }
 
   // Signals are taken synchronously by sigwait below; every thread inherits the blocked mask.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  const sigset_t signals = BlockSignals();
 
   std::vector<std::unique_ptr<LinMotServer>> servers;
   for (int i = 0; i < flags.count; ++i) {
@@ -241,22 +349,7 @@ int main(int argc, char** argv) {
   }
   std::cout.flush();
 
-  while (true) {
-    int sig = 0;
-    if (flags.status_every_s > 0) {
-      timespec timeout{};
-      timeout.tv_sec = static_cast<time_t>(flags.status_every_s);
-      timeout.tv_nsec = static_cast<long>((flags.status_every_s - timeout.tv_sec) * 1e9);
-      sig = sigtimedwait(&signals, nullptr, &timeout);
-      if (sig < 0) {
-        if (errno == EAGAIN) PrintStatus(servers);
-        continue;
-      }
-    } else if (sigwait(&signals, &sig) != 0) {
-      continue;
-    }
-    break;
-  }
+  WaitForSignal(signals, flags.status_every_s, [&] { PrintStatus(servers); });
   for (auto& s : servers) s->Stop();
   std::cout << "drivegw-sim: stopped\n";
   return 0;
