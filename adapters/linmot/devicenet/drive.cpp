@@ -26,6 +26,9 @@ constexpr uint16_t kInit = ControlWord::kInitRequest;
 constexpr Duration kHeartbeat = std::chrono::seconds(1);
 // Velocity from actual positions at least this far apart (decision 982).
 constexpr Duration kMinVelocityWindow = std::chrono::milliseconds(20);
+// Below this measured speed an axis outside In Position counts as standing (decision 982):
+// a few position increments (19.5 µm) per velocity window.
+constexpr double kStandstillMmS = 2.0;
 // §8.4: position set-points are ±32256 increments (±630 mm).
 constexpr int64_t kPositionLimit = 32256;
 // Home: INIT that ran between two polls is recognised after this many answered polls without
@@ -139,13 +142,14 @@ std::vector<std::string> Named(WordKind kind, uint16_t raw, uint16_t ignore_mask
 // ---------------------------------------------------------------------------------------------
 // Pure helpers.
 
-DriveState MapDnState(bool online, StatusLowWord low, StatusHighWord high, Motor motor) {
-  (void)high;
+DriveState MapDnState(bool online, StatusLowWord low, Motor motor, bool motion_active) {
   if (!online) return DriveState::kOffline;
   if (low.error_state() || low.error_pending()) return DriveState::kFault;
   if (low.emergency_stop()) return DriveState::kDisabled;
   if (low.init_state()) return DriveState::kHoming;
-  if (low.run_state()) return low.in_position(motor) ? DriveState::kEnabled : DriveState::kMoving;
+  if (low.run_state()) {
+    return motion_active && !low.in_position(motor) ? DriveState::kMoving : DriveState::kEnabled;
+  }
   if (low.disable_state()) return DriveState::kDisabled;
   return DriveState::kReady;  // STOPPED: initialised, RUN not requested (D-10)
 }
@@ -330,9 +334,13 @@ std::vector<uint8_t> LinMotDnDrive::BuildPollCommand() noexcept {
   ConsumedImage image = EmptyConsumed(options_.layout);
   image.control = ControlWord{control_word_};
   ++poll_gen_;
+  if (tx_ && !tx_->done && tx_->once && tx_->first_gen != 0) {
+    tx_->done = true;  // D-28: a Reset Controller left standing would reset the drive again
+  }
   if (tx_ && !tx_->done) {
     if (tx_->first_gen == 0) tx_->first_gen = poll_gen_;
     image.addressed = tx_->slot;
+    if (tx_->once) cv_.notify_all();
   } else {
     image.addressed = BackgroundSlotLocked();
   }
@@ -622,9 +630,17 @@ std::vector<std::string> LinMotDnDrive::WarningsLocked() const {
   return out;
 }
 
+bool LinMotDnDrive::MotionActiveLocked() const {
+  // Decision 982: no Motion Active bit in this generation. A gateway motion runs until In
+  // Position; otherwise (native curves, braking after a RUN loss) the measured speed decides.
+  const StatusLowWord low = sample_.low;
+  if (!sample_.valid || !low.run_state() || low.in_position(options_.motor)) return false;
+  return motion_.has_value() || std::fabs(velocity_mm_s_) > kStandstillMmS;
+}
+
 DriveStatus LinMotDnDrive::BuildStatusLocked() const {
   DriveStatus s;
-  s.state = MapDnState(OnlineLocked(), sample_.low, sample_.high, options_.motor);
+  s.state = MapDnState(OnlineLocked(), sample_.low, options_.motor, MotionActiveLocked());
   if (!sample_.valid) {
     if (!link_reason_.empty()) s.native.text = link_reason_;
     return s;
@@ -647,7 +663,7 @@ DriveStatus LinMotDnDrive::BuildStatusLocked() const {
   s.velocity_mm_s = velocity_mm_s_;
   s.homed = low.init_done();
   s.in_target = low.in_position(options_.motor);
-  s.motion_active = low.run_state() && !s.in_target;
+  s.motion_active = MotionActiveLocked();
   s.warnings = WarningsLocked();
   s.fault = FaultLocked();
   return s;
@@ -1360,11 +1376,12 @@ absl::StatusOr<NativeReply> LinMotDnDrive::SendNative(const NativeRequest& req) 
     t.serial = ++tx_serial_;
     t.slot = slot;
     t.spec = spec;
+    t.once = true;
     tx_ = t;
     MarkUrgentLocked();
     const uint64_t serial = t.serial;
     const Wait w = WaitLocked(lock, deadline, [&] {
-      return !tx_ || tx_->serial != serial || (tx_->first_gen != 0 && poll_gen_ > tx_->first_gen);
+      return !tx_ || tx_->serial != serial || tx_->first_gen != 0;
     });
     if (tx_ && tx_->serial == serial) tx_.reset();
     if (w != Wait::kReached && w != Wait::kOffline) return WaitFailure(w, what, "not sent");

@@ -43,9 +43,11 @@ struct DnDriveOptions {
   std::shared_ptr<Session> session_override;
 };
 
-// Unified state of a LinMot DeviceNet controller's status words for `motor`
+// Unified state of a LinMot DeviceNet controller's status low word for `motor`
 // (docs/decisions/982-devicenet-state-mapping.md). Pure; `online` false gives OFFLINE.
-DriveState MapDnState(bool online, StatusLowWord low, StatusHighWord high, Motor motor);
+// `motion_active`: the drive's own judgement (the protocol has no Motion Active bit): RUN, not
+// In Position, and a gateway motion command open or the axis measurably moving.
+DriveState MapDnState(bool online, StatusLowWord low, Motor motor, bool motion_active);
 
 // Conversions of §0.5, checked (never clamped): OutOfRange naming the field and the wire range.
 absl::StatusOr<int16_t> PositionToDn(const std::string& field, double mm);
@@ -114,6 +116,7 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
     CommandSlot slot;
     const CommandSpec* spec = nullptr;
     bool toggle = false;          // T-command: done when Command Toggle == T too
+    bool once = false;            // never answered (0x0F): carried by exactly one poll
     uint64_t first_gen = 0;       // first poll that carries it
     bool error_before = false;    // ERROR Pending at submission
     bool error_rose = false;      // ERROR Pending seen rising while in flight
@@ -156,6 +159,7 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
   Fault FaultLocked() const;
   std::vector<std::string> WarningsLocked() const;
   bool OnlineLocked() const { return link_ == LinkState::kOnline && sample_.valid; }
+  bool MotionActiveLocked() const;
   bool FaultPendingLocked() const {
     return sample_.low.error_state() || sample_.low.error_pending();
   }
