@@ -1,5 +1,5 @@
 // LinMotDnDevice: application state, command execution and motion of the simulated LinMot
-// DeviceNet controller (linmot-devicenet.md §7, §8, §12.5; decisions 951-956).
+// DeviceNet controller (linmot-devicenet.md §7, §8, §12.5; decisions 951-954).
 #include "sim/linmot_devicenet/device.h"
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 // DnStack: DeviceNet network start-up, connection management, explicit messaging and I/O of the
-// simulated drive (linmot-devicenet.md §5, §12.2-§12.4; decisions 954-957).
+// simulated drive (linmot-devicenet.md §5, §12.2-§12.4; decisions 955, 956).
 #include "sim/linmot_devicenet/dn_stack.h"
 
 #include <algorithm>
