@@ -107,6 +107,13 @@ void LinMotDnServer::Run() {
     }
     std::lock_guard lock(mu_);
     AdvanceLocked();
+    // §5.10 on real hardware: our own controller went bus-off (SocketCAN error frames).
+    if (channel_->state() == transport::CanBusState::kBusOff &&
+        stack_->network() != NetworkState::kBusOff &&
+        stack_->network() != NetworkState::kDisabled) {
+      stack_->GoBusOff(clock_.Now());
+      pending_.clear();
+    }
     if (received->has_value()) HandleFrameLocked(**received);
     FlushDueLocked();
   }

@@ -10,9 +10,13 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <fstream>
+#include <mutex>
+#include <optional>
 #include <random>
+#include <span>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
@@ -384,6 +388,58 @@ TEST_F(ServerTest, StartWithInjectedChannel_AndInvalidOptions) {
   EXPECT_EQ(master.Expect(0x42F), "42F#00.00.00.05.00.4D.4C");
   (*server)->Stop();
   (*server)->Stop();  // idempotent
+}
+
+// An injected channel whose controller reports bus-off: the drive goes bus-off itself (§5.10).
+class FakeChannel : public transport::CanChannel {
+ public:
+  absl::Status Send(const transport::CanFrame&) override {
+    ++sent;
+    return absl::OkStatus();
+  }
+  absl::StatusOr<std::optional<transport::CanFrame>> Receive(
+      std::chrono::nanoseconds timeout) override {
+    std::unique_lock lock(mu_);
+    cv_.wait_for(lock, timeout, [&] { return woken_; });
+    woken_ = false;
+    return std::optional<transport::CanFrame>();
+  }
+  void Wake() override {
+    std::lock_guard lock(mu_);
+    woken_ = true;
+    cv_.notify_all();
+  }
+  absl::Status SetFilters(std::span<const transport::CanFilter>) override {
+    return absl::OkStatus();
+  }
+  transport::CanBusState state() const override { return state_.load(); }
+  transport::CanCounters counters() const override { return {}; }
+  std::string name() const override { return "fake0"; }
+
+  std::atomic<transport::CanBusState> state_{transport::CanBusState::kActive};
+  std::atomic<int> sent{0};
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool woken_ = false;
+};
+
+TEST_F(ServerTest, ChannelReportsBusOff_DriveGoesBusOff8148) {
+  auto fake = std::make_unique<FakeChannel>();
+  FakeChannel* channel = fake.get();
+  auto server = LinMotDnServer::Start(testing::F1Options(), clock_, std::move(fake));
+  ASSERT_TRUE(server.ok()) << server.status();
+  EXPECT_EQ((*server)->bus_name(), "fake0");
+  EXPECT_EQ(channel->sent.load(), 1) << "the first duplicate MAC request";
+  channel->state_ = transport::CanBusState::kBusOff;
+  ASSERT_TRUE(
+      WaitFor([&] { return (*server)->Snapshot().stack.network == NetworkState::kBusOff; }));
+  EXPECT_EQ((*server)->Snapshot().device.coded_error, dn::kCodedCanBusOff);
+  clock_.Advance(seconds(5));
+  (*server)->Snapshot();
+  EXPECT_EQ(channel->sent.load(), 1) << "nothing transmitted while bus-off";
+  (*server)->Stop();
 }
 
 // ---- python-can as the master (Debian python3-can, run by /usr/bin/python3) ----
