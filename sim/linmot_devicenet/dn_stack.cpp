@@ -782,6 +782,15 @@ dn::ExplicitResponse DnStack::GetAttribute(const dn::ExplicitRequest& r) {
           return value(Usint(bus_off_count_));
         case dn::kAttrDnAllocationInformation:
           return value({allocated_, owner_.value_or(0xFF)});
+        case 6:  // MAC ID switch changed since start-up: the switches are read once
+        case 7:  // baud rate switch changed
+          return value(Usint(0));
+        case 8:  // MAC ID switch value
+          return value(Usint(options_.mac_switches));
+        case 9:  // baud rate switch value (the rate is a LinTalk parameter, no switch)
+          return value(Usint(options_.baud == BaudRate::k125   ? 0
+                             : options_.baud == BaudRate::k250 ? 1
+                                                               : 2));
         default:
           return Error(reply, dn::kErrAttributeNotSupported, dn::kAddNone);
       }
@@ -1114,6 +1123,10 @@ StackSnapshot DnStack::Snapshot() const {
   s.explicit_connection = conn(explicit_);
   s.poll_connection = conn(poll_);
   s.cos_connection = conn(cos_);
+  s.poll_produced_size = static_cast<uint16_t>(dn::ProducedSize(PollLayout(options_)));
+  s.poll_consumed_size = static_cast<uint16_t>(dn::ConsumedSize(PollLayout(options_)));
+  s.cos_produced_size = static_cast<uint16_t>(dn::ProducedSize(CosLayout(options_)));
+  s.cos_consumed_size = static_cast<uint16_t>(dn::ConsumedSize(CosLayout(options_)));
   s.boi = boi_;
   s.bus_off_count = bus_off_count_;
   s.counters = counters_;

@@ -143,6 +143,12 @@ struct StackSnapshot {
   ConnectionSnapshot explicit_connection;
   ConnectionSnapshot poll_connection;
   ConnectionSnapshot cos_connection;
+  // LinTalk's computed "Poll PrdCnSize/CsdCnSize" and "CoS PrdCnSize/CsdCnSize" (bytes, D-25),
+  // fixed at start-up from the module selection (§7.7, seed lines 228-229, 275-276).
+  uint16_t poll_produced_size = 0;
+  uint16_t poll_consumed_size = 0;
+  uint16_t cos_produced_size = 0;
+  uint16_t cos_consumed_size = 0;
   bool boi = false;           // DeviceNet object attribute 3
   uint8_t bus_off_count = 0;  // attribute 4 (saturating)
   StackCounters counters;

@@ -220,11 +220,26 @@ TEST_F(StackTest, GetAttributeSingle_ConnectionIdentityAndUnsupportedObjects_Tc0
   EXPECT_THAT(Send("42C#00.0E.01.01.04"), ElementsAre("42B#00.8E.01.03"));
   EXPECT_THAT(Send("42C#00.0E.03.01.01"), ElementsAre("42B#00.8E.05"));
   EXPECT_THAT(Send("42C#00.0E.03.01.05"), ElementsAre("42B#00.8E.03.00"));
+  EXPECT_THAT(Send("42C#00.0E.03.01.08"), ElementsAre("42B#00.8E.05"));
+  EXPECT_THAT(Send("42C#00.0E.03.01.0A"), ElementsAre("42B#00.94.14.FF"));
   EXPECT_THAT(Send("42C#00.0E.02.01.01"), ElementsAre("42B#00.94.14.FF")) << "message router";
   EXPECT_THAT(Send("42C#00.0E.04.64.03"), ElementsAre("42B#00.94.14.FF")) << "assembly";
   EXPECT_THAT(Send("42C#00.0E.64.01.01"), ElementsAre("42B#00.94.16.FF")) << "application";
   EXPECT_THAT(Send("42C#00.10.01.01.01.00.00"), ElementsAre("42B#00.94.0E.FF"));
   EXPECT_THAT(Send("42C#00.4D.01.01"), ElementsAre("42B#00.94.08.FF"));
+}
+
+// TC-03: the computed sizes of F1, F2, F3.
+TEST_F(StackTest, ComputedSizesFollowTheModuleSelection_Tc03) {
+  const std::pair<DnSimOptions, std::pair<int, int>> cases[] = {{testing::F1Options(), {6, 8}},
+                                                                {testing::F2Options(), {10, 8}},
+                                                                {testing::F3Options(), {22, 24}}};
+  for (const auto& [options, sizes] : cases) {
+    Make(options);
+    const auto snap = stack_->Snapshot();
+    EXPECT_EQ(snap.poll_consumed_size, sizes.first);
+    EXPECT_EQ(snap.poll_produced_size, sizes.second);
+  }
 }
 
 TEST_F(StackTest, ConnectionAttributesNotReadable_ErrorResponse_D13) {
