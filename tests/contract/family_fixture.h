@@ -39,6 +39,15 @@ class FamilyFixture {
   virtual int64_t WritableParameterValue() const = 0;
   // A parameter id the drive does not know.
   virtual absl::StatusOr<ParameterRef> UnknownParameter() const = 0;
+
+  // Smallest position step the family's wire carries; tolerances are never tighter (0: finer
+  // than any tolerance of the suite).
+  virtual double PositionResolutionMm() const { return 0; }
+  // False for families without stored (ROM) values: writing one must then fail, not go to RAM.
+  virtual bool HasStoredParameters() const { return true; }
+  // False when a link loss takes the drive out of operation and the gateway, by design, does not
+  // re-enable it on reconnect (no replay, e.g. linmot-devicenet decision 983).
+  virtual bool EnabledAcrossLinkLoss() const { return true; }
 };
 
 struct FamilyCase {
@@ -48,5 +57,6 @@ struct FamilyCase {
 
 // Families under contract (one line per family, defined next to each fixture).
 std::unique_ptr<FamilyFixture> MakeLinMotUdpFixture();
+std::unique_ptr<FamilyFixture> MakeLinMotDnFixture();
 
 }  // namespace drivegw::contract

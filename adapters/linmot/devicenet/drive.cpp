@@ -35,6 +35,9 @@ constexpr int64_t kPositionLimit = 32256;
 // the INIT State bit (decision 984).
 constexpr int kInitSettleResponses = 3;
 
+// A new fault's details (0x0A, 0x08) are read within this many responses (decision 982).
+constexpr int kFaultHoldResponses = 4;
+
 // Native fault codes for errors that are not coded errors (decision 986).
 constexpr uint32_t kFaultMotorError = 0x0001'0000;
 constexpr uint32_t kFaultSystemError = 0x0002'0000;
@@ -311,15 +314,15 @@ CommandSlot LinMotDnDrive::BackgroundSlotLocked() {
   // §11.4: a standing Get is answered with the live value; the rotation reads position, set-point
   // and, while pending, the error and warning details (§11.7 step 1).
   const Motor m = options_.motor;
-  std::vector<Command> list = {
-      Command{Raw(CommandId::kGetActualPosition), m, false, 0},
-      Command{Raw(CommandId::kGetPositionSetpoint), m, false, 0},
-  };
+  std::vector<Command> list;
   if (sample_.low.error_pending() || sample_.low.error_state()) {
+    // First after a new fault (rotation_ restarts at 0): coded error, motor, system word.
     list.push_back(Command{Raw(CommandId::kGetCodedError), std::nullopt, false, 0});
-    list.push_back(Command{Raw(CommandId::kGetErrorState), std::nullopt, false, 0});
     list.push_back(Command{Raw(CommandId::kGetErrorState), m, false, 0});
+    list.push_back(Command{Raw(CommandId::kGetErrorState), std::nullopt, false, 0});
   }
+  list.push_back(Command{Raw(CommandId::kGetActualPosition), m, false, 0});
+  list.push_back(Command{Raw(CommandId::kGetPositionSetpoint), m, false, 0});
   if (sample_.low.warning_pending()) {
     list.push_back(Command{Raw(CommandId::kGetWarnState), std::nullopt, false, 0});
     list.push_back(Command{Raw(CommandId::kGetWarnState), m, false, 0});
@@ -463,6 +466,16 @@ void LinMotDnDrive::OnPollResponse(std::span<const uint8_t> produced, TimePoint 
     velocity_mm_s_ = 0;
   }
 
+  // Decision 982: a new fault is published with its code and text; its details take one to
+  // three more (urgent) polls, for which status and trackers wait.
+  if (FaultPendingLocked() && !FaultDetailsKnownLocked() && fault_hold_ < kFaultHoldResponses) {
+    if (fault_hold_ == 0) rotation_ = 0;
+    ++fault_hold_;
+    MarkUrgentLocked();
+    cv_.notify_all();
+    return;
+  }
+  if (!FaultPendingLocked()) fault_hold_ = 0;
   // Status first: a handle that ends on this response is then republished with this sample.
   PublishLocked(false);
   EvaluateTrackersLocked(received);
@@ -521,7 +534,11 @@ void LinMotDnDrive::EvaluateMotionLocked(TimePoint now) {
                absl::StrCat("superseded on the drive (position set-point ", *cache_.setpoint,
                             ", commanded ", m.target, ")"));
   }
-  if (sample_.low.in_position(options_.motor)) return end(CommandState::kDone, "");
+  // DONE with a position read from this very response, so that the snapshot published with the
+  // handle shows where the axis stopped (the rotation reads it every other poll).
+  if (sample_.low.in_position(options_.motor) && cache_.actual_gen == answered_gen_) {
+    return end(CommandState::kDone, "");
+  }
   if (m.completion_deadline && now >= *m.completion_deadline) {
     end(CommandState::kError, "completion time-out: not In Position (decision 984)");
   }
@@ -628,6 +645,11 @@ std::vector<std::string> LinMotDnDrive::WarningsLocked() const {
   }
   if (out.empty()) out.push_back("WARNING Pending");
   return out;
+}
+
+bool LinMotDnDrive::FaultDetailsKnownLocked() const {
+  if (!cache_.coded_error) return false;
+  return *cache_.coded_error != kCodedNoError || (cache_.motor_error && cache_.system_error);
 }
 
 bool LinMotDnDrive::MotionActiveLocked() const {
@@ -947,6 +969,11 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::AcknowledgeFault() {
     const bool fault = FaultPendingLocked();
     const bool warning = sample_.low.warning_pending();
     if (!fault && !warning) return absl::OkStatus();  // nothing pending, drive untouched
+    if (fault && !cache_.coded_error) {
+      // A fatal coded error must be known before any reset is sent (decision 986).
+      DGW_RETURN_IF_ERROR(
+          GetLocked(lock, CommandId::kGetCodedError, std::nullopt, deadline).status());
+    }
     const Fault f = FaultLocked();
     if (fault && f.fatal) {
       absl::Status s = absl::FailedPreconditionError(absl::StrCat(

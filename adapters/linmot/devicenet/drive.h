@@ -160,6 +160,7 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
   std::vector<std::string> WarningsLocked() const;
   bool OnlineLocked() const { return link_ == LinkState::kOnline && sample_.valid; }
   bool MotionActiveLocked() const;
+  bool FaultDetailsKnownLocked() const;
   bool FaultPendingLocked() const {
     return sample_.low.error_state() || sample_.low.error_pending();
   }
@@ -226,6 +227,7 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
   std::optional<Transaction> tx_;
   uint64_t tx_serial_ = 0;
   size_t rotation_ = 0;
+  int fault_hold_ = 0;  // responses held back while a new fault's details are read (982)
   uint64_t connection_ = 0;  // increments per OFFLINE: transactions of an older one fail
 
   std::optional<MotionTracker> motion_;
