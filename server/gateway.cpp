@@ -13,6 +13,7 @@
 #include "adapters/core/log.h"
 #include "adapters/core/registry.h"
 #include "adapters/core/status.h"
+#include "adapters/linmot/devicenet/factory.h"
 #include "adapters/linmot/linudp/factory.h"
 #include "server/grpc/drive_service_grpc.h"
 #include "server/grpc/worker_pool.h"
@@ -33,6 +34,7 @@ constexpr int kWorkerThreads = 8;
 DriveRegistry MakeRegistry() {
   DriveRegistry r;
   r.Register(linmot::linudp::kFamilyName, linmot::linudp::CreateLinMotUdpDrive);
+  r.Register(linmot::devicenet::kFamilyName, linmot::devicenet::CreateLinMotDnDrive);
   return r;
 }
 }  // namespace

@@ -125,10 +125,21 @@ absl::StatusOr<NativeRequest> ValidateNative(const v1::SendNativeCommandRequest&
       return LinMotRtcRequest{static_cast<uint8_t>(c.command_id()), static_cast<uint16_t>(c.word2()),
                               static_cast<uint16_t>(c.word3()), static_cast<uint16_t>(c.word4())};
     }
+    case v1::SendNativeCommandRequest::kLinmotDevicenet: {
+      const auto& c = r.linmot_devicenet();
+      if (c.command() > 0xFFFF) {
+        return FieldError("linmot_devicenet.command", absl::StrCat(c.command(), " exceeds 65535"));
+      }
+      if (c.value() < -32768 || c.value() > 65535) {
+        return FieldError("linmot_devicenet.value",
+                          absl::StrCat(c.value(), " is outside [-32768, 65535] (one 16-bit word)"));
+      }
+      return LinMotDnRequest{static_cast<uint16_t>(c.command()), c.value()};
+    }
     case v1::SendNativeCommandRequest::COMMAND_NOT_SET:
       break;
   }
-  return FieldError("command", "one of linmot_motion, linmot_rtc is required");
+  return FieldError("command", "one of linmot_motion, linmot_rtc, linmot_devicenet is required");
 }
 
 absl::Status ValidateParameterId(const char* request, const std::string& family, uint32_t parameter_id) {
