@@ -281,9 +281,7 @@ TEST_F(DeviceNetContract, TC_06_ResetControllerNotAnsweredReconnect) {
   Enable();
   Native(0x000F, 0);
   WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kOffline; });
-  ASSERT_NE(WaitUntil([](const DriveStatus& s) {
-              return s.state != DriveState::kOffline;
-            }).state,
+  ASSERT_NE(WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; }).state,
             DriveState::kOffline);
   EXPECT_EQ(server_->Snapshot().device.controller_resets, 1u);
   int resets = 0;
@@ -335,9 +333,9 @@ TEST_F(DeviceNetContract, TC_10_DuplicateMacId_DriveStaysOffline) {
   EXPECT_GE(drive_->exchange_counters()->drive_restarts, 1u);
   EXPECT_EQ(server_->Snapshot().device.coded_error, dn::kCodedMacIdInUse);
   // Still offline after several set-up attempts.
-  EXPECT_EQ(WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; }, 1s)
-                .state,
-            DriveState::kOffline);
+  EXPECT_EQ(
+      WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; }, 1s).state,
+      DriveState::kOffline);
 }
 
 // TC-11: bus-off in the drive: silent, then after its recovery a new set-up; Get Coded Error
@@ -505,15 +503,16 @@ TEST_F(DeviceNetContract, TC_34_35_36_WarnAndErrorStates) {
   server_->WithDevice(
       [](LinMotDnDevice& d) { d.SetMotorWarningCause(dn::Motor::kA, dn::kMotorTooHotCalc); });
   WaitUntil([](const DriveStatus& s) {
-    return std::find(s.warnings.begin(), s.warnings.end(), "Motor Too Hot Calc") != s.warnings.end();
+    return std::find(s.warnings.begin(), s.warnings.end(), "Motor Too Hot Calc") !=
+           s.warnings.end();
   });
   EXPECT_EQ(Read(0x06), 0x1000);  // TC-34: system word, Warn Motor A
   EXPECT_THAT(drive_->GetStatus().warnings, ::testing::Contains("Motor Too Hot Calc"));
   server_->WithDevice(
       [](LinMotDnDevice& d) { d.SetMotorErrorCause(dn::Motor::kA, dn::kMotorFollowingError); });
   const DriveStatus f = WaitUntil([](const DriveStatus& s) { return s.fault.code == 0x10004; });
-  EXPECT_EQ(f.fault.code, 0x10004u);  // decision 986: motor error word 0x0004
-  EXPECT_EQ(Read(0x08), 0x1000);     // TC-35: system word, Error Motor A
+  EXPECT_EQ(f.fault.code, 0x10004u);           // decision 986: motor error word 0x0004
+  EXPECT_EQ(Read(0x08), 0x1000);               // TC-35: system word, Error Motor A
   EXPECT_EQ(Native(0x1008, 0).word3, 0x0004);  // TC-35: motor word, Following Error
   server_->WithDevice([](LinMotDnDevice& d) {
     d.SetMotorErrorCause(dn::Motor::kA, dn::kMotorFollowingError | dn::kMotorTooHotSensor);
@@ -555,8 +554,6 @@ TEST_F(DeviceNetContract, TC_39_41_43_IoWordsAndDirectOutSelection) {
 
 }  // namespace
 
-std::unique_ptr<FamilyFixture> MakeLinMotDnFixture() {
-  return std::make_unique<LinMotDnFixture>();
-}
+std::unique_ptr<FamilyFixture> MakeLinMotDnFixture() { return std::make_unique<LinMotDnFixture>(); }
 
 }  // namespace drivegw::contract

@@ -104,8 +104,8 @@ absl::Status CheckPosition(const std::string& field, double value, double target
 
 // Rounds a profile limit down (the drive never exceeds what was commanded, decision 984) and
 // checks it against the command's range.
-absl::StatusOr<uint16_t> LimitToDn(const std::string& field, double value, double unit,
-                                   int64_t lo, int64_t hi, const char* unit_text) {
+absl::StatusOr<uint16_t> LimitToDn(const std::string& field, double value, double unit, int64_t lo,
+                                   int64_t hi, const char* unit_text) {
   if (!std::isfinite(value)) {
     return absl::InvalidArgumentError(absl::StrCat(field, ": ", value, " is not a finite number"));
   }
@@ -257,8 +257,8 @@ void LinMotDnDrive::DoDeactivate() {
     std::unique_lock lock(mu_);
     if (OnlineLocked() && control_word_ != 0) {
       SetControlWordLocked(0);
-      const auto bound = std::min<Duration>(config().timeouts.request,
-                                            std::chrono::milliseconds(500));
+      const auto bound =
+          std::min<Duration>(config().timeouts.request, std::chrono::milliseconds(500));
       WaitControlWordLocked(lock, clock_.Now() + bound);
     }
   }
@@ -641,7 +641,8 @@ std::vector<std::string> LinMotDnDrive::WarningsLocked() const {
     }
   }
   if (cache_.motor_warn) {
-    for (auto& n : Named(WordKind::kMotorWarnState, *cache_.motor_warn)) out.push_back(std::move(n));
+    for (auto& n : Named(WordKind::kMotorWarnState, *cache_.motor_warn))
+      out.push_back(std::move(n));
   }
   if (out.empty()) out.push_back("WARNING Pending");
   return out;
@@ -738,8 +739,8 @@ LinMotDnDrive::Wait LinMotDnDrive::WaitControlWordLocked(std::unique_lock<std::m
   return WaitLocked(lock, deadline, [&] { return cw_answered_ >= gen; });
 }
 
-absl::Status LinMotDnDrive::WaitOnlineLocked(std::unique_lock<std::mutex>& lock,
-                                             TimePoint deadline, const char* operation) {
+absl::Status LinMotDnDrive::WaitOnlineLocked(std::unique_lock<std::mutex>& lock, TimePoint deadline,
+                                             const char* operation) {
   for (;;) {
     if (!active_) return WaitFailure(Wait::kInactive, operation, "");
     if (OnlineLocked()) return absl::OkStatus();
@@ -786,8 +787,8 @@ absl::StatusOr<LinMotDnDrive::Transaction> LinMotDnDrive::TransactLocked(
     std::unique_lock<std::mutex>& lock, const Command& command, TimePoint deadline,
     const std::string& what, bool strict) {
   if (!OnlineLocked()) {
-    return absl::UnavailableError(absl::StrCat("drive '", name_, "': ", what,
-                                               ": no poll response from ", endpoint()));
+    return absl::UnavailableError(
+        absl::StrCat("drive '", name_, "': ", what, ": no poll response from ", endpoint()));
   }
   absl::StatusOr<CommandSlot> slot = EncodeCommand(command, Module::kAddressed, strict);
   if (!slot.ok()) {
@@ -803,7 +804,8 @@ absl::StatusOr<LinMotDnDrive::Transaction> LinMotDnDrive::TransactLocked(
   tx_ = t;
   MarkUrgentLocked();
   const uint64_t serial = t.serial;
-  const Wait w = WaitLocked(lock, deadline, [&] { return tx_ && tx_->serial == serial && tx_->done; });
+  const Wait w =
+      WaitLocked(lock, deadline, [&] { return tx_ && tx_->serial == serial && tx_->done; });
   if (w != Wait::kReached) {
     if (tx_ && tx_->serial == serial) tx_.reset();
     return WaitFailure(w, what,
@@ -832,8 +834,10 @@ absl::Status LinMotDnDrive::CodedErrorStatus(std::unique_lock<std::mutex>& lock,
                      code.ok() ? "" : " (coded error unreadable)"));
   }
   const uint16_t coded = static_cast<uint16_t>(*code);
-  absl::Status s(CodeFor(coded), absl::StrCat("drive '", name_, "': ", what, ": refused by the "
-                                              "drive: ", CodedErrorText(coded)));
+  absl::Status s(CodeFor(coded), absl::StrCat("drive '", name_, "': ", what,
+                                              ": refused by the "
+                                              "drive: ",
+                                              CodedErrorText(coded)));
   AttachCodedError(s, coded);
   return s;
 }
@@ -884,7 +888,8 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::Enable() {
         absl::Status s = absl::FailedPreconditionError(
             absl::StrCat("drive '", name_, "': Enable: drive reports a fault (", fault.text,
                          "); AcknowledgeFault first"));
-        if (cache_.coded_error && *cache_.coded_error != 0) AttachCodedError(s, *cache_.coded_error);
+        if (cache_.coded_error && *cache_.coded_error != 0)
+          AttachCodedError(s, *cache_.coded_error);
         return s;
       }
       if (low.emergency_stop()) {
@@ -904,10 +909,10 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::Enable() {
                  (sample_.low.init_done() || FaultPendingLocked());
         });
         if (w != Wait::kReached) {
-          return WaitFailure(w, "Enable",
-                             absl::StrCat("motor initialisation (INIT) did not finish within ",
-                                          config().timeouts.homing.count(), " ms, drive in ",
-                                          StateTextLocked()));
+          return WaitFailure(
+              w, "Enable",
+              absl::StrCat("motor initialisation (INIT) did not finish within ",
+                           config().timeouts.homing.count(), " ms, drive in ", StateTextLocked()));
         }
         continue;
       }
@@ -921,14 +926,13 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::Enable() {
       }
       SetControlWordLocked(kRun);
       w = WaitLocked(lock, deadline, [&] {
-        return cw_answered_ >= cw_generation_ &&
-               (sample_.low.run_state() || FaultPendingLocked());
+        return cw_answered_ >= cw_generation_ && (sample_.low.run_state() || FaultPendingLocked());
       });
       if (w != Wait::kReached) {
-        return WaitFailure(w, "Enable",
-                           absl::StrCat("RUN request not followed within ",
-                                        config().timeouts.request.count(), " ms, drive in ",
-                                        StateTextLocked()));
+        return WaitFailure(
+            w, "Enable",
+            absl::StrCat("RUN request not followed within ", config().timeouts.request.count(),
+                         " ms, drive in ", StateTextLocked()));
       }
     }
   }();
@@ -1032,8 +1036,8 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::Home() {
   motion_.reset();  // superseded (StartCommand aborted its handle)
   // §11.10: initialise / home = INIT request; RUN released so that it can rise again after.
   SetControlWordLocked(kInit);
-  homing_ = HomingTracker{cmd.id, HomingPhase::kStarting, cw_generation_,
-                          now + config().timeouts.homing};
+  homing_ =
+      HomingTracker{cmd.id, HomingPhase::kStarting, cw_generation_, now + config().timeouts.homing};
   const Wait w = WaitLocked(lock, deadline, [&] {
     return !homing_ || homing_->id != cmd.id || homing_->phase != HomingPhase::kStarting;
   });
@@ -1081,8 +1085,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
         "drive '", name_, "': ", kind, " needs RUN (ENABLED), drive is in ", StateTextLocked()));
   }
   const AxisConfig& axis = config().axis;
-  const double actual_mm =
-      cache_.actual_position ? PositionFromDn(*cache_.actual_position) : 0.0;
+  const double actual_mm = cache_.actual_position ? PositionFromDn(*cache_.actual_position) : 0.0;
   const double v0 = velocity_mm_s_;
 
   // Profile limits: deceleration 0 means = acceleration; the filter has one acceleration limit,
@@ -1096,8 +1099,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
     double a_mm_s2 = 0;
     double distance_mm = 0;
   };
-  auto limits = [&](const std::string& k, double v, double a, double d,
-                    Plan& p) -> absl::Status {
+  auto limits = [&](const std::string& k, double v, double a, double d, Plan& p) -> absl::Status {
     if (d == 0) d = a;
     DGW_RETURN_IF_ERROR(
         CheckLimit(k + ".velocity_mm_s", v, axis.max_velocity_mm_s, "axis.max_velocity_mm_s"));
@@ -1106,8 +1108,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
     DGW_RETURN_IF_ERROR(CheckLimit(k + ".deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
                                    "axis.max_acceleration_mm_s2"));
     DGW_ASSIGN_OR_RETURN(p.speed, SpeedToDn(k + ".velocity_mm_s", v));
-    const std::string acc_field =
-        d < a ? k + ".deceleration_mm_s2" : k + ".acceleration_mm_s2";
+    const std::string acc_field = d < a ? k + ".deceleration_mm_s2" : k + ".acceleration_mm_s2";
     DGW_ASSIGN_OR_RETURN(p.acceleration, AccelerationToDn(acc_field, std::min(a, d)));
     p.v_mm_s = *p.speed * kMmSPerSpeedIncrement;
     p.a_mm_s2 = p.acceleration * kMmS2PerAccelerationIncrement;
@@ -1122,8 +1123,8 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
       DGW_RETURN_IF_ERROR(limits("move_absolute", m->velocity_mm_s, m->acceleration_mm_s2,
                                  m->deceleration_mm_s2, plan));
       DGW_ASSIGN_OR_RETURN(plan.target, PositionToDn("move_absolute.position_mm", m->position_mm));
-      plan.command = Command{Raw(CommandId::kSetPositionSetpoint), options_.motor, false,
-                             plan.target};
+      plan.command =
+          Command{Raw(CommandId::kSetPositionSetpoint), options_.motor, false, plan.target};
       plan.distance_mm = PositionFromDn(plan.target) - actual_mm;
       return absl::OkStatus();
     }
@@ -1137,12 +1138,11 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
       }
       DGW_ASSIGN_OR_RETURN(const int16_t increment,
                            PositionToDn("move_relative.distance_mm", m->distance_mm));
-      DGW_ASSIGN_OR_RETURN(const int32_t setpoint,
-                           GetLocked(lock, CommandId::kGetPositionSetpoint, options_.motor,
-                                     request_deadline));
+      DGW_ASSIGN_OR_RETURN(const int32_t setpoint, GetLocked(lock, CommandId::kGetPositionSetpoint,
+                                                             options_.motor, request_deadline));
       const int32_t target = setpoint + increment;
-      DGW_RETURN_IF_ERROR(CheckPosition("move_relative.distance_mm", m->distance_mm,
-                                        PositionFromDn(target), axis));
+      DGW_RETURN_IF_ERROR(
+          CheckPosition("move_relative.distance_mm", m->distance_mm, PositionFromDn(target), axis));
       if (target < -kPositionLimit || target > kPositionLimit) {
         return absl::OutOfRangeError(absl::StrCat(
             "move_relative.distance_mm: ", m->distance_mm, " takes the set-point to ", target,
@@ -1165,8 +1165,8 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
                                  m->acceleration_mm_s2, m->deceleration_mm_s2, plan));
       const double end_mm = m->velocity_mm_s > 0 ? axis.max_mm : axis.min_mm;
       DGW_ASSIGN_OR_RETURN(plan.target, PositionToDn("axis.max_mm/min_mm", end_mm));
-      plan.command = Command{Raw(CommandId::kSetPositionSetpoint), options_.motor, false,
-                             plan.target};
+      plan.command =
+          Command{Raw(CommandId::kSetPositionSetpoint), options_.motor, false, plan.target};
       plan.distance_mm = end_mm - actual_mm;
       return absl::OkStatus();
     }
@@ -1182,8 +1182,8 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
     const double stop_mm = std::clamp(actual_mm + v0 * std::fabs(v0) / (2 * plan.a_mm_s2),
                                       axis.min_mm, axis.max_mm);  // the stroke, not the input
     DGW_ASSIGN_OR_RETURN(plan.target, PositionToDn("stop position", stop_mm));
-    plan.command = Command{Raw(CommandId::kSetPositionSetpoint), options_.motor, false,
-                           plan.target};
+    plan.command =
+        Command{Raw(CommandId::kSetPositionSetpoint), options_.motor, false, plan.target};
     plan.v_mm_s = std::max(std::fabs(v0), 1.0);
     plan.distance_mm = stop_mm - actual_mm;
     return absl::OkStatus();
@@ -1257,9 +1257,10 @@ absl::StatusOr<int64_t> LinMotDnDrive::ReadParameter(const ParameterRef& ref) {
   DGW_RETURN_IF_ERROR(RequireActive("ReadParameter"));
   const std::string where = absl::StrFormat("drive '%s': parameter 0x%02X", name_, ref.id);
   if (ref.rom) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        where, ".rom: LinMot DeviceNet has no stored values, only live ones "
-               "(linmot-devicenet.md §8.8, D-29)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(where,
+                     ".rom: LinMot DeviceNet has no stored values, only live ones "
+                     "(linmot-devicenet.md §8.8, D-29)"));
   }
   if (ref.id > 0x7F) {
     return absl::InvalidArgumentError(
@@ -1276,8 +1277,8 @@ absl::StatusOr<int64_t> LinMotDnDrive::ReadParameter(const ParameterRef& ref) {
     get = pair != nullptr && pair->kind == CommandKind::kGet ? pair : nullptr;
   }
   if (get == nullptr || get->kind != CommandKind::kGet || !get->documented) {
-    return absl::InvalidArgumentError(absl::StrCat(where, " (", spec->name,
-                                                   "): not readable (no documented Get command)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, " (", spec->name, "): not readable (no documented Get command)"));
   }
   std::lock_guard op(op_mu_);
   std::unique_lock lock(mu_);
@@ -1290,9 +1291,10 @@ absl::Status LinMotDnDrive::WriteParameter(const ParameterRef& ref, int64_t valu
   DGW_RETURN_IF_ERROR(RequireActive("WriteParameter"));
   const std::string where = absl::StrFormat("drive '%s': parameter 0x%02X", name_, ref.id);
   if (ref.rom) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        where, ".rom: LinMot DeviceNet has no stored values; Set commands are volatile "
-               "(linmot-devicenet.md §8.8, D-29)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(where,
+                     ".rom: LinMot DeviceNet has no stored values; Set commands are volatile "
+                     "(linmot-devicenet.md §8.8, D-29)"));
   }
   if (ref.id > 0x7F) {
     return absl::InvalidArgumentError(
@@ -1326,12 +1328,11 @@ absl::Status LinMotDnDrive::WriteParameter(const ParameterRef& ref, int64_t valu
   const TimePoint deadline = clock_.Now() + config().timeouts.request;
   DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, "WriteParameter"));
   const std::string what = absl::StrCat("write ", set->name);
-  DGW_ASSIGN_OR_RETURN(
-      const Transaction t,
-      TransactLocked(lock,
-                     Command{set->id, MotorFor(*set, options_.motor), false,
-                             static_cast<int32_t>(value)},
-                     deadline, what));
+  DGW_ASSIGN_OR_RETURN(const Transaction t,
+                       TransactLocked(lock,
+                                      Command{set->id, MotorFor(*set, options_.motor), false,
+                                              static_cast<int32_t>(value)},
+                                      deadline, what));
   if (t.error_rose) return CodedErrorStatus(lock, what, deadline);
   if (set->id == Raw(CommandId::kSetFilterMaxSpeed)) cache_.filter_speed = t.slot.value;
   if (set->id == Raw(CommandId::kSetFilterMaxAcceleration)) {
@@ -1370,13 +1371,14 @@ absl::StatusOr<NativeReply> LinMotDnDrive::SendNative(const NativeRequest& req) 
         absl::StrCat(where, ".command: ", Hex16(dn->command), " sets reserved bits 11..8"));
   }
   if (std::popcount(static_cast<unsigned>(word.motor_mask)) > 1) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        where, ".command: ", Hex16(dn->command), " selects more than one motor (D-6)"));
+    return absl::InvalidArgumentError(absl::StrCat(where, ".command: ", Hex16(dn->command),
+                                                   " selects more than one motor (D-6)"));
   }
   if (word.id == Raw(CommandId::kSetControlWord)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        where, ".command: 0x05 Set Control Word: the Control In module owns the control word "
-               "(D-8); use Enable, Disable, Home"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(where,
+                     ".command: 0x05 Set Control Word: the Control In module owns the control word "
+                     "(D-8); use Enable, Disable, Home"));
   }
   std::optional<Motor> motor;
   for (int m = 0; m < 4; ++m) {
@@ -1387,8 +1389,8 @@ absl::StatusOr<NativeReply> LinMotDnDrive::SendNative(const NativeRequest& req) 
   const TimePoint deadline = clock_.Now() + config().timeouts.request;
   DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, "SendNative"));
   // §8.2: the toggle bit of a T-command is the handshake's, never the caller's guess.
-  word.toggle = spec->toggle ? NextToggle(sample_.high, motor.value_or(options_.motor))
-                             : word.toggle;
+  word.toggle =
+      spec->toggle ? NextToggle(sample_.high, motor.value_or(options_.motor)) : word.toggle;
   const CommandSlot slot{word.raw(), static_cast<uint16_t>(dn->value)};
   const std::string what = absl::StrCat("native command ", Hex16(slot.word), " (", spec->name, ")");
   const bool moves = (word.id >= 0x11 && word.id <= 0x14) || (word.id >= 0x20 && word.id <= 0x23);
@@ -1407,9 +1409,8 @@ absl::StatusOr<NativeReply> LinMotDnDrive::SendNative(const NativeRequest& req) 
     tx_ = t;
     MarkUrgentLocked();
     const uint64_t serial = t.serial;
-    const Wait w = WaitLocked(lock, deadline, [&] {
-      return !tx_ || tx_->serial != serial || tx_->first_gen != 0;
-    });
+    const Wait w = WaitLocked(lock, deadline,
+                              [&] { return !tx_ || tx_->serial != serial || tx_->first_gen != 0; });
     if (tx_ && tx_->serial == serial) tx_.reset();
     if (w != Wait::kReached && w != Wait::kOffline) return WaitFailure(w, what, "not sent");
     log::Info("drive_reset", log::Fields().Add("drive", name_).Add("endpoint", endpoint()));

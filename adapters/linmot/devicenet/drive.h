@@ -115,11 +115,11 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
     uint64_t serial = 0;
     CommandSlot slot;
     const CommandSpec* spec = nullptr;
-    bool toggle = false;          // T-command: done when Command Toggle == T too
-    bool once = false;            // never answered (0x0F): carried by exactly one poll
-    uint64_t first_gen = 0;       // first poll that carries it
-    bool error_before = false;    // ERROR Pending at submission
-    bool error_rose = false;      // ERROR Pending seen rising while in flight
+    bool toggle = false;        // T-command: done when Command Toggle == T too
+    bool once = false;          // never answered (0x0F): carried by exactly one poll
+    uint64_t first_gen = 0;     // first poll that carries it
+    bool error_before = false;  // ERROR Pending at submission
+    bool error_rose = false;    // ERROR Pending seen rising while in flight
     bool done = false;
     CommandSlot response;
     StatusLowWord low_at_response;
@@ -190,8 +190,8 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
                                 TimePoint deadline);
 
   absl::StatusOr<CommandInfo> RunMove(const MotionCommand& cmd);
-  absl::Status WriteFilterLocked(std::unique_lock<std::mutex>& lock, CommandId id,
-                                 uint16_t value, TimePoint deadline, const std::string& what);
+  absl::Status WriteFilterLocked(std::unique_lock<std::mutex>& lock, CommandId id, uint16_t value,
+                                 TimePoint deadline, const std::string& what);
 
   const Clock& clock_;
   const std::string name_;
@@ -227,7 +227,7 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
   std::optional<Transaction> tx_;
   uint64_t tx_serial_ = 0;
   size_t rotation_ = 0;
-  int fault_hold_ = 0;  // responses held back while a new fault's details are read (982)
+  int fault_hold_ = 0;       // responses held back while a new fault's details are read (982)
   uint64_t connection_ = 0;  // increments per OFFLINE: transactions of an older one fail
 
   std::optional<MotionTracker> motion_;

@@ -37,9 +37,9 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateLinMotDnDrive(const DriveConfig& co
         absl::StrCat(where, ".mac_id: ", *config.mac_id, " exceeds ", kMaxMacId));
   }
   if (*config.mac_id == defaults.session.master_mac) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        where, ".mac_id: ", *config.mac_id, " is the gateway's own MAC ID on ",
-        transport::CanSpecString(can), " (decision 981)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ".mac_id: ", *config.mac_id, " is the gateway's own MAC ID on ",
+                     transport::CanSpecString(can), " (decision 981)"));
   }
   const TimeoutConfig& t = config.timeouts;
   for (const auto& [field, value] : {std::pair{"request", t.request}, std::pair{"accept", t.accept},

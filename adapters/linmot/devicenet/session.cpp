@@ -41,6 +41,8 @@ void Add(PeerCounters& into, const PeerCounters& c) {
 
 Duration Ms(uint16_t ms) { return std::chrono::milliseconds(ms); }
 
+constexpr char kUnregistered[] = "unregistered";
+
 }  // namespace
 
 const char* ToString(LinkState s) {
@@ -71,8 +73,8 @@ absl::StatusOr<std::shared_ptr<Session>> Session::Open(
     const Clock& clock) {
   if (channel == nullptr) return absl::InvalidArgumentError("devicenet session: channel is null");
   if (options.master_mac > kMaxMacId) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "devicenet session.master_mac: ", options.master_mac, " exceeds ", kMaxMacId));
+    return absl::InvalidArgumentError(
+        absl::StrCat("devicenet session.master_mac: ", options.master_mac, " exceeds ", kMaxMacId));
   }
   if (options.duplicate_check_wait <= Duration::zero() ||
       options.bus_retry_min <= Duration::zero() || options.bus_retry_max < options.bus_retry_min) {
@@ -133,18 +135,17 @@ absl::StatusOr<PeerId> Session::Register(const PeerOptions& o, SessionPeer* peer
     }
   }
   if (o.poll_period < std::chrono::milliseconds(1)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(where, ".devicenet.poll_period: below 1 ms"));
+    return absl::InvalidArgumentError(absl::StrCat(where, ".devicenet.poll_period: below 1 ms"));
   }
   if (o.response_timeout <= Duration::zero() || o.explicit_timeout <= Duration::zero() ||
       o.retry_min <= Duration::zero() || o.retry_max < o.retry_min) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        where, ".devicenet: time-outs must be positive and retry_max >= retry_min"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ".devicenet: time-outs must be positive and retry_max >= retry_min"));
   }
   if (Ms(o.expected_packet_rate_ms) <= o.poll_period) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        where, ".devicenet.expected_packet_rate_ms: ", o.expected_packet_rate_ms,
-        " must exceed the poll period (linmot-devicenet.md §11.3)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ".devicenet.expected_packet_rate_ms: ", o.expected_packet_rate_ms,
+                     " must exceed the poll period (linmot-devicenet.md §11.3)"));
   }
   auto ids = PredefinedSetIds(o.mac_id);
   if (!ids.ok()) return ids.status();
@@ -196,7 +197,7 @@ void Session::Unregister(PeerId id) {
       }
     }
   }
-  SetLinkLocked(p, LinkState::kOffline, "unregistered");
+  SetLinkLocked(p, LinkState::kOffline, kUnregistered);
   Add(counters_.total, p.counters);
   log::Info("devicenet_peer_unregistered",
             log::Fields().Add("drive", p.options.name).Add("bus", bus_name()));
@@ -246,9 +247,10 @@ bool Session::SendFrameLocked(const Frame& frame, PeerCounters* counters) {
   absl::Status s = channel_->Send(ToCanFrame(frame));
   if (s.ok()) return true;
   if (counters != nullptr) ++counters->send_errors;
-  log::Debug("devicenet_send_error",
-             log::Fields().Add("bus", bus_name()).Add("frame", FrameToString(frame)).Add(
-                 "error", s.message()));
+  log::Debug("devicenet_send_error", log::Fields()
+                                         .Add("bus", bus_name())
+                                         .Add("frame", FrameToString(frame))
+                                         .Add("error", s.message()));
   return false;
 }
 
@@ -274,9 +276,8 @@ void Session::SendPollLocked(Peer& p, TimePoint now) {
   const std::vector<uint8_t> image = p.peer->BuildPollCommand();
   auto frames = EncodePollCommand(p.options.mac_id, image, p.options.consumed_size);
   if (!frames.ok()) {
-    log::Error("devicenet_internal", log::Fields()
-                                         .Add("drive", p.options.name)
-                                         .Add("error", frames.status().message()));
+    log::Error("devicenet_internal",
+               log::Fields().Add("drive", p.options.name).Add("error", frames.status().message()));
     p.next_poll = now + p.options.poll_period;
     return;
   }
@@ -305,7 +306,7 @@ void Session::SetLinkLocked(Peer& p, LinkState to, const std::string& reason) {
       .Add("from", ToString(from))
       .Add("to", ToString(to));
   if (!reason.empty()) fields.Add("reason", "\"" + reason + "\"");
-  if (to == LinkState::kOffline && from == LinkState::kOnline) {
+  if (to == LinkState::kOffline && from == LinkState::kOnline && reason != kUnregistered) {
     log::Warn("devicenet_link", fields);  // recovered automatically (§11.8)
   } else {
     log::Info("devicenet_link", fields);
@@ -331,8 +332,7 @@ void Session::StartSetupLocked(Peer& p, TimePoint now) {
                      p.ids.unconnected_request, now);
 }
 
-void Session::FailSetupLocked(Peer& p, TimePoint now, const std::string& why,
-                              bool release_first) {
+void Session::FailSetupLocked(Peer& p, TimePoint now, const std::string& why, bool release_first) {
   log::Fields fields;
   fields.Add("drive", p.options.name)
       .Add("bus", bus_name())
@@ -370,8 +370,8 @@ void Session::EstablishLocked(Peer& p, TimePoint now) {
                                           .Add("explicit_epr_ms", p.granted_explicit_epr_ms));
 }
 
-void Session::DropConnectionLocked(Peer& p, TimePoint now, const std::string& reason,
-                                   Duration wait, bool release_first) {
+void Session::DropConnectionLocked(Peer& p, TimePoint now, const std::string& reason, Duration wait,
+                                   bool release_first) {
   p.step = Step::kBackoff;
   p.retry_at = now + wait;
   p.release_first = release_first;
@@ -453,8 +453,9 @@ Duration Session::ServiceBusLocked(TimePoint now) {
       bus_ = BusState::kOnline;
       bus_backoff_ = options_.bus_retry_min;
       log::Info("devicenet_bus_online",
-                log::Fields().Add("bus", bus_name()).Add("master_mac",
-                                                         static_cast<int>(options_.master_mac)));
+                log::Fields()
+                    .Add("bus", bus_name())
+                    .Add("master_mac", static_cast<int>(options_.master_mac)));
       return Duration::zero();
   }
   return kIdleWait;
@@ -642,8 +643,7 @@ void Session::HandleFrameLocked(const transport::CanFrame& raw, TimePoint now) {
   }
 }
 
-void Session::HandleDuplicateMacLocked(uint8_t mac, std::span<const uint8_t> data,
-                                       TimePoint now) {
+void Session::HandleDuplicateMacLocked(uint8_t mac, std::span<const uint8_t> data, TimePoint now) {
   absl::StatusOr<DuplicateMacCheck> check = DecodeDuplicateMacCheck(data);
   if (!check.ok()) {
     ++counters_.malformed;
@@ -703,8 +703,7 @@ void Session::HandleDuplicateMacLocked(uint8_t mac, std::span<const uint8_t> dat
                        p->options.restart_wait, false);
 }
 
-void Session::HandleExplicitResponseLocked(Peer& p, std::span<const uint8_t> data,
-                                           TimePoint now) {
+void Session::HandleExplicitResponseLocked(Peer& p, std::span<const uint8_t> data, TimePoint now) {
   if (data.empty()) {
     ++counters_.malformed;
     return;
@@ -718,9 +717,9 @@ void Session::HandleExplicitResponseLocked(Peer& p, std::span<const uint8_t> dat
   absl::StatusOr<ExplicitResponse> response = DecodeExplicitResponse(data);
   if (!response.ok()) {
     ++counters_.malformed;
-    log::Debug("devicenet_malformed", log::Fields()
-                                          .Add("drive", p.options.name)
-                                          .Add("error", response.status().message()));
+    log::Debug(
+        "devicenet_malformed",
+        log::Fields().Add("drive", p.options.name).Add("error", response.status().message()));
     return;
   }
   const uint8_t expected_service =
@@ -784,17 +783,17 @@ void Session::OnExplicitResultLocked(Peer& p, const Explicit& request,
       }
       auto format = DecodeAllocateResponse(*response);
       if (!format.ok() || *format != BodyFormat::k8_8) {
-        return FailSetupLocked(
-            p, now,
-            format.ok() ? "Allocate granted body format other than 8/8 (not supported)"
-                        : std::string(format.status().message()),
-            true);
+        return FailSetupLocked(p, now,
+                               format.ok()
+                                   ? "Allocate granted body format other than 8/8 (not supported)"
+                                   : std::string(format.status().message()),
+                               true);
       }
       p.step = Step::kExplicitEpr;
       p.xid = !p.xid;
       SendExplicitLocked(p,
-                         SetExpectedPacketRateRequest(options_.master_mac, p.xid,
-                                                      kInstanceExplicit, p.options.explicit_epr_ms),
+                         SetExpectedPacketRateRequest(options_.master_mac, p.xid, kInstanceExplicit,
+                                                      p.options.explicit_epr_ms),
                          p.ids.explicit_request, now);
       return;
     }
@@ -843,20 +842,20 @@ void Session::OnExplicitResultLocked(Peer& p, const Explicit& request,
     }
     case Step::kPollEpr: {
       if (!response || error) {
-        return FailSetupLocked(
-            p, now,
-            response ? absl::StrCat("Set expected packet rate refused: ", error_text)
-                     : "no answer to Set expected packet rate",
-            true);
+        return FailSetupLocked(p, now,
+                               response
+                                   ? absl::StrCat("Set expected packet rate refused: ", error_text)
+                                   : "no answer to Set expected packet rate",
+                               true);
       }
       // §5.6 step 5: use the granted value (the drive may round up).
       p.granted_epr_ms = p.options.expected_packet_rate_ms;
       if (auto v = DecodeUintValue(response->data); v.ok() && *v > 0) p.granted_epr_ms = *v;
       if (Ms(p.granted_epr_ms) <= p.options.poll_period) {
-        return FailSetupLocked(p, now,
-                               absl::StrCat("granted EPR ", p.granted_epr_ms,
-                                            " ms does not exceed the poll period"),
-                               true);
+        return FailSetupLocked(
+            p, now,
+            absl::StrCat("granted EPR ", p.granted_epr_ms, " ms does not exceed the poll period"),
+            true);
       }
       EstablishLocked(p, now);
       return;
@@ -924,9 +923,9 @@ absl::StatusOr<std::shared_ptr<Session>> SessionPool::Acquire(const CanBusConfig
   if (it != sessions_.end()) {
     if (std::shared_ptr<Session> live = it->second.lock()) {
       if (live->master_mac() != options.master_mac) {
-        return absl::FailedPreconditionError(absl::StrCat(
-            "devicenet bus ", key, ": the gateway already uses MAC ID ", live->master_mac(),
-            " there, not ", options.master_mac));
+        return absl::FailedPreconditionError(
+            absl::StrCat("devicenet bus ", key, ": the gateway already uses MAC ID ",
+                         live->master_mac(), " there, not ", options.master_mac));
       }
       return live;
     }

@@ -76,10 +76,10 @@ struct SessionOptions {
 
 // One drive (slave) on the bus.
 struct PeerOptions {
-  std::string name;            // drive name, for logs
-  uint8_t mac_id = 5;          // 0..63, not the gateway's
-  size_t consumed_size = 6;    // poll command bytes (§7.7); fragmented when > 8 (§5.8)
-  size_t produced_size = 8;    // poll response bytes
+  std::string name;          // drive name, for logs
+  uint8_t mac_id = 5;        // 0..63, not the gateway's
+  size_t consumed_size = 6;  // poll command bytes (§7.7); fragmented when > 8 (§5.8)
+  size_t produced_size = 8;  // poll response bytes
   Duration poll_period = std::chrono::milliseconds(10);       // D-33
   Duration response_timeout = std::chrono::milliseconds(50);  // poll response
   uint16_t expected_packet_rate_ms = 100;  // poll connection EPR; must exceed poll_period (§11.3)
@@ -122,9 +122,9 @@ class Session {
                                                        const SessionOptions& options,
                                                        const Clock& clock);
   // The same on a channel the caller opened (tests inject faults through it).
-  static absl::StatusOr<std::shared_ptr<Session>> Open(std::unique_ptr<transport::CanChannel> channel,
-                                                       const SessionOptions& options,
-                                                       const Clock& clock);
+  static absl::StatusOr<std::shared_ptr<Session>> Open(
+      std::unique_ptr<transport::CanChannel> channel, const SessionOptions& options,
+      const Clock& clock);
   ~Session();
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
@@ -157,15 +157,15 @@ class Session {
  private:
   // Connection set-up steps (§11.2) and the established state.
   enum class Step {
-    kWaitBus,          // bus not online yet
-    kBackoff,          // retry at retry_at
-    kRelease,          // Release outstanding (before a re-allocation, §11.8)
-    kAllocate,         // Allocate explicit + polled outstanding (§5.5)
-    kExplicitEpr,      // Set EPR of instance 1 (§11.2 step 5)
-    kProducedSize,     // Get attr 7 of instance 2 (optional, D-13)
-    kConsumedSize,     // Get attr 8 of instance 2 (optional)
-    kPollEpr,          // Set EPR of instance 2 (§11.2 step 6)
-    kEstablished,      // polling
+    kWaitBus,       // bus not online yet
+    kBackoff,       // retry at retry_at
+    kRelease,       // Release outstanding (before a re-allocation, §11.8)
+    kAllocate,      // Allocate explicit + polled outstanding (§5.5)
+    kExplicitEpr,   // Set EPR of instance 1 (§11.2 step 5)
+    kProducedSize,  // Get attr 7 of instance 2 (optional, D-13)
+    kConsumedSize,  // Get attr 8 of instance 2 (optional)
+    kPollEpr,       // Set EPR of instance 2 (§11.2 step 6)
+    kEstablished,   // polling
   };
   enum class BusState { kChecking, kOnline, kDuplicate, kDown };
 

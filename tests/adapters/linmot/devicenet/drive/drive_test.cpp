@@ -29,8 +29,8 @@ using sim::linmot_devicenet::LinMotDnDevice;
 using sim::linmot_devicenet::LinMotDnServer;
 using ::testing::HasSubstr;
 
-constexpr auto kWait = 10s;                     // bound for conditions that hold within a second
-constexpr char kGroup[] = "239.74.163.93";      // not python-can's default: no stray traffic
+constexpr auto kWait = 10s;                 // bound for conditions that hold within a second
+constexpr char kGroup[] = "239.74.163.93";  // not python-can's default: no stray traffic
 
 // A port no other test (here or in a concurrent ctest process) uses at the same time.
 uint16_t UniquePort() {
@@ -78,7 +78,7 @@ TEST(Conversions, Position_IncrementsOf19_53Um_CheckedNotClamped) {
 }
 
 TEST(Conversions, FilterLimits_RoundDownAndNameTheRange) {
-  EXPECT_EQ(*SpeedToDn("v", 1000.0), 5242);      // 999.9 mm/s: never faster than asked
+  EXPECT_EQ(*SpeedToDn("v", 1000.0), 5242);  // 999.9 mm/s: never faster than asked
   EXPECT_EQ(*AccelerationToDn("a", 10000.0), 41);
   EXPECT_EQ(*AccelerationToDn("a", 238.419), 1);
   auto slow = AccelerationToDn("move_absolute.acceleration_mm_s2", 100.0);
@@ -199,8 +199,8 @@ class DnDriveTest : public ::testing::Test {
     DriveStatus s = drive_->GetStatus();
     while (std::chrono::steady_clock::now() < deadline) {
       if (pred(Sim())) return true;
-      s = drive_->WaitForStatus(s.sequence, std::min(deadline, std::chrono::steady_clock::now() +
-                                                                   100ms));
+      s = drive_->WaitForStatus(s.sequence,
+                                std::min(deadline, std::chrono::steady_clock::now() + 100ms));
     }
     return pred(Sim());
   }
@@ -268,9 +268,8 @@ TEST_F(DnDriveTest, MoveAbsolute_RampsAndEndsDone) {
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_GE(elapsed, target / 200 * 0.95);  // never faster than commanded (filter floor)
-  const DriveStatus s = WaitUntil([&](const DriveStatus& s) {
-    return std::fabs(s.position_mm - target) < 0.05;
-  });
+  const DriveStatus s =
+      WaitUntil([&](const DriveStatus& s) { return std::fabs(s.position_mm - target) < 0.05; });
   EXPECT_NEAR(s.position_mm, target, 0.05);
   EXPECT_NEAR(s.demand_position_mm, target, 1e-9);
   EXPECT_EQ(s.state, DriveState::kEnabled);
@@ -292,9 +291,8 @@ TEST_F(DnDriveTest, MoveRelative_EndsAtSetpointPlusDistance) {
   const bool toggle_before = Sim().device.motors[0].command_toggle;
   const CommandInfo rel = Move(MoveRelative{7.5, 300, 3000, 0});
   EXPECT_EQ(WaitFinal(rel.id).state, CommandState::kDone);
-  const DriveStatus s = WaitUntil([](const DriveStatus& s) {
-    return std::fabs(s.position_mm - 57.5) < 0.05;
-  });
+  const DriveStatus s =
+      WaitUntil([](const DriveStatus& s) { return std::fabs(s.position_mm - 57.5) < 0.05; });
   EXPECT_NEAR(s.demand_position_mm, 57.5, 1e-9);
   EXPECT_NE(Sim().device.motors[0].command_toggle, toggle_before);  // one execution (TC-21)
   // Beyond the axis: refused before anything is sent.
@@ -405,7 +403,8 @@ TEST_F(DnDriveTest, Warning_ReportedByName_ResetByAcknowledge) {
   Enable();
   server_->WithDevice([](LinMotDnDevice& d) { d.SetMotorWarningCause(Motor::kA, 1u << 0); });
   const DriveStatus w = WaitUntil([](const DriveStatus& s) {
-    return std::find(s.warnings.begin(), s.warnings.end(), "Motor Too Hot Calc") != s.warnings.end();
+    return std::find(s.warnings.begin(), s.warnings.end(), "Motor Too Hot Calc") !=
+           s.warnings.end();
   });
   EXPECT_THAT(w.warnings, ::testing::Contains("Motor Too Hot Calc"));
   EXPECT_EQ(w.state, DriveState::kEnabled);
@@ -485,9 +484,7 @@ TEST_F(DnDriveTest, DriveBusOff_OfflineThenReconnect) {
   Start();
   Enable();
   server_->GoBusOff();
-  ASSERT_EQ(WaitUntil([](const DriveStatus& s) {
-              return s.state == DriveState::kOffline;
-            }).state,
+  ASSERT_EQ(WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kOffline; }).state,
             DriveState::kOffline);
   server_->RecoverBusOff();
   const DriveStatus back =
@@ -531,9 +528,7 @@ TEST_F(DnDriveTest, WrongResponseLength_CountedAndOffline) {
   WaitUntil([&](const DriveStatus& s) { return s.state == DriveState::kOffline; });
   EXPECT_GT(drive_->exchange_counters()->size_mismatches, 0u);
   server_->SetResponseLengthDelta(0);
-  EXPECT_NE(WaitUntil([](const DriveStatus& s) {
-              return s.state != DriveState::kOffline;
-            }).state,
+  EXPECT_NE(WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; }).state,
             DriveState::kOffline);
 }
 
@@ -573,7 +568,7 @@ TEST_F(DnDriveTest, Native_RawCommandWordAndValue) {
   ASSERT_TRUE(get.ok()) << get.status();
   EXPECT_EQ(get->word2, 0x1018);
   EXPECT_EQ(get->status, 0u);
-  EXPECT_EQ(get->word4 & 0x0002, 0x0002);  // RUN State
+  EXPECT_EQ(get->word4 & 0x0002, 0x0002);                     // RUN State
   auto set = drive_->SendNative(LinMotDnRequest{0x1025, 3});  // Set Rise Curve Number
   ASSERT_TRUE(set.ok()) << set.status();
   EXPECT_EQ(set->word3, 3);

@@ -9,9 +9,9 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <functional>
 #include <memory>
-#include <condition_variable>
 #include <mutex>
 
 #include "adapters/core/clock.h"
@@ -256,14 +256,14 @@ TEST(DnSession, BadAndForeignFrames_CountedDroppedSessionSurvives) {
   auto other = OpenBus(port);
   transport::CanFrame extended = Frame(0x42D, {1, 2});
   extended.extended = true;
-  ASSERT_TRUE(other->Send(extended).ok());                                     // not DeviceNet
-  ASSERT_TRUE(other->Send(transport::MakeCanRtrFrame(0x3C5, 8)).ok());         // no remote frames
-  ASSERT_TRUE(other->Send(Frame(0x7F5, {0})).ok());                            // invalid range
-  ASSERT_TRUE(other->Send(Frame(0x3C9, {0, 0, 0, 0, 0, 0, 0, 0})).ok());       // MAC 9: unknown
+  ASSERT_TRUE(other->Send(extended).ok());                                // not DeviceNet
+  ASSERT_TRUE(other->Send(transport::MakeCanRtrFrame(0x3C5, 8)).ok());    // no remote frames
+  ASSERT_TRUE(other->Send(Frame(0x7F5, {0})).ok());                       // invalid range
+  ASSERT_TRUE(other->Send(Frame(0x3C9, {0, 0, 0, 0, 0, 0, 0, 0})).ok());  // MAC 9: unknown
   ASSERT_TRUE(other->Send(Frame(0x42E, {0x01, 0x4B, 0x03, 0x01, 0x01, 0x01})).ok());  // master 1
-  ASSERT_TRUE(other->Send(Frame(0x42D, {0, 0, 0, 0, 0, 0})).ok());             // foreign poll
-  ASSERT_TRUE(other->Send(Frame(0x42B, {0x40, 0x8E, 0x00})).ok());             // wrong XID/no req
-  ASSERT_TRUE(other->Send(Frame(0x3C5, {0, 0, 0})).ok());                      // short response
+  ASSERT_TRUE(other->Send(Frame(0x42D, {0, 0, 0, 0, 0, 0})).ok());  // foreign poll
+  ASSERT_TRUE(other->Send(Frame(0x42B, {0x40, 0x8E, 0x00})).ok());  // wrong XID/no req
+  ASSERT_TRUE(other->Send(Frame(0x3C5, {0, 0, 0})).ok());           // short response
   ASSERT_TRUE(peer.Eventually([&] {
     const SessionCounters c = (*session)->counters();
     const PeerCounters p = *(*session)->peer_counters(*id);
@@ -315,16 +315,14 @@ TEST(DnSession, Pool_TwoDrivesOneBus_OneSession) {
   EXPECT_EQ(a->get(), b->get());
   SessionOptions other = FastSession();
   other.master_mac = 1;
-  EXPECT_EQ(SessionPool::Instance().Acquire(Bus(port), other, SteadyClock::Instance())
-                .status()
-                .code(),
-            absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(
+      SessionPool::Instance().Acquire(Bus(port), other, SteadyClock::Instance()).status().code(),
+      absl::StatusCode::kFailedPrecondition);
   RecordingPeer p5(6), p6(6);
   ASSERT_TRUE((*a)->Register(Peer(5), &p5).ok());
   ASSERT_TRUE((*b)->Register(Peer(6), &p6).ok());
-  EXPECT_TRUE(p5.Eventually([&] {
-    return p5.link() == LinkState::kOnline && p6.link() == LinkState::kOnline;
-  }));
+  EXPECT_TRUE(p5.Eventually(
+      [&] { return p5.link() == LinkState::kOnline && p6.link() == LinkState::kOnline; }));
   EXPECT_EQ((*a)->peer_count(), 2u);
   EXPECT_EQ(*sim5->Snapshot().stack.owner, 0);
   EXPECT_EQ(*sim6->Snapshot().stack.owner, 0);
