@@ -288,7 +288,10 @@ void Session::SendPollLocked(Peer& p, TimePoint now) {
   }
   p.poll_outstanding = true;
   p.poll_deadline = now + p.options.response_timeout;
-  p.next_poll = now + p.options.poll_period;
+  // Paced polls keep their grid (no drift from loop latency); an urgent or late one restarts it.
+  p.next_poll = now >= p.next_poll && now - p.next_poll < p.options.poll_period
+                    ? p.next_poll + p.options.poll_period
+                    : now + p.options.poll_period;
   p.reassembler.Reset();
 }
 
