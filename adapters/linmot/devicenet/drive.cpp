@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_join.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
@@ -428,15 +429,14 @@ void LinMotDnDrive::OnPollResponse(std::span<const uint8_t> produced, TimePoint 
   cw_answered_ = cw_in_flight_;
   AbsorbResponseLocked(*image->addressed);
 
-  if (tx_ && !tx_->done) {
+  if (tx_ && !tx_->done && tx_->first_gen != 0 && answered_gen_ >= tx_->first_gen) {
     if (!tx_->error_before && sample_.low.error_pending()) tx_->error_rose = true;
     const bool toggle_ok =
-        !tx_->toggle ||
-        ToggleAccepted(CommandWord::FromRaw(tx_->slot.word).toggle, sample_.high, options_.motor);
+        !tx_->toggle || ToggleAccepted(CommandWord::FromRaw(tx_->slot.word).toggle, sample_.high,
+                                       tx_->motor.value_or(options_.motor));
     // §11.4: done when a poll that carried it is answered with its echo (and, for T-commands,
-    // the Command Toggle bit equals T).
-    if (tx_->first_gen != 0 && answered_gen_ >= tx_->first_gen &&
-        image->addressed->word == tx_->slot.word && toggle_ok) {
+    // the Command Toggle bit equals T — unless the drive refused it, D-7).
+    if (image->addressed->word == tx_->slot.word && (toggle_ok || tx_->error_rose)) {
       tx_->done = true;
       tx_->response = *image->addressed;
       tx_->low_at_response = sample_.low;
@@ -548,8 +548,10 @@ void LinMotDnDrive::EvaluateHomingLocked(TimePoint now) {
   if (!homing_) return;
   HomingTracker& h = *homing_;
   auto end = [&](CommandState st, const std::string& message) {
-    UpdateCommand(h.id, st, message);
+    const uint64_t id = h.id;
     homing_.reset();
+    PublishLocked(true);  // `homed` first, so that the handle's end shows it (decision 982)
+    UpdateCommand(id, st, message);
   };
   if (FaultPendingLocked()) {
     SetControlWordLocked(0);
@@ -684,7 +686,8 @@ DriveStatus LinMotDnDrive::BuildStatusLocked() const {
   if (cache_.actual_position) s.position_mm = PositionFromDn(*cache_.actual_position);
   if (cache_.setpoint) s.demand_position_mm = PositionFromDn(*cache_.setpoint);
   s.velocity_mm_s = velocity_mm_s_;
-  s.homed = low.init_done();
+  // Homed: initialised, not (re-)initialising, no Home handle still restoring RUN.
+  s.homed = low.init_done() && !low.init_state() && !homing_.has_value();
   s.in_target = low.in_position(options_.motor);
   s.motion_active = MotionActiveLocked();
   s.warnings = WarningsLocked();
@@ -800,6 +803,7 @@ absl::StatusOr<LinMotDnDrive::Transaction> LinMotDnDrive::TransactLocked(
   t.slot = *slot;
   t.spec = FindCommand(command.id);
   t.toggle = t.spec != nullptr && t.spec->toggle;
+  t.motor = command.motor;
   t.error_before = sample_.low.error_pending();
   tx_ = t;
   MarkUrgentLocked();
@@ -848,6 +852,10 @@ absl::StatusOr<int32_t> LinMotDnDrive::GetLocked(std::unique_lock<std::mutex>& l
   const std::string what = absl::StrCat("read ", spec ? spec->name : "?");
   DGW_ASSIGN_OR_RETURN(const Transaction t,
                        TransactLocked(lock, Command{Raw(id), motor, false, 0}, deadline, what));
+  // A Get the drive cannot serve (e.g. 0x60 without encoder) answers 0 and raises a coded error.
+  if (t.error_rose && id != CommandId::kGetCodedError) {
+    return CodedErrorStatus(lock, what, deadline);
+  }
   auto r = DecodeResponse(t.response);
   if (!r.ok()) return r.status();
   return r->value;
@@ -903,6 +911,13 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::Enable() {
       Wait w;
       if (low.init_state() || !low.init_done()) {
         // D-10: RUN needs INIT Done; INIT request from DISABLE (or let a running INIT finish).
+        // INIT starts on a rising edge of the request: a request left standing is cleared first.
+        if (control_word_ == kInit && !low.init_state()) {
+          SetControlWordLocked(0);
+          if (Wait w0 = WaitControlWordLocked(lock, deadline); w0 != Wait::kReached) {
+            return WaitFailure(w0, "Enable", "control word 0x0000 not answered");
+          }
+        }
         SetControlWordLocked(kInit);
         w = WaitLocked(lock, init_deadline, [&] {
           return cw_answered_ >= cw_generation_ && !sample_.low.init_state() &&
@@ -1072,7 +1087,9 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
   const std::string kind = KindName(cmd);
   std::unique_lock lock(mu_);
   auto fail = [&](const absl::Status& s) {
-    return absl::Status(s.code(), absl::StrCat("drive '", name_, "': ", s.message()));
+    const std::string prefix = absl::StrCat("drive '", name_, "': ");
+    if (absl::StartsWith(s.message(), prefix)) return s;
+    return absl::Status(s.code(), absl::StrCat(prefix, s.message()));
   };
   if (!OnlineLocked()) {
     return absl::UnavailableError(absl::StrCat("drive '", name_, "': ", kind,
@@ -1424,6 +1441,7 @@ absl::StatusOr<NativeReply> LinMotDnDrive::SendNative(const NativeRequest& req) 
   t.slot = slot;
   t.spec = spec;
   t.toggle = spec->toggle;
+  t.motor = motor;
   t.error_before = sample_.low.error_pending();
   tx_ = t;
   MarkUrgentLocked();

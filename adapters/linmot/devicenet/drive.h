@@ -117,6 +117,7 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
     const CommandSpec* spec = nullptr;
     bool toggle = false;        // T-command: done when Command Toggle == T too
     bool once = false;          // never answered (0x0F): carried by exactly one poll
+    std::optional<Motor> motor;  // whose Command Toggle a T-command flips
     uint64_t first_gen = 0;     // first poll that carries it
     bool error_before = false;  // ERROR Pending at submission
     bool error_rose = false;    // ERROR Pending seen rising while in flight

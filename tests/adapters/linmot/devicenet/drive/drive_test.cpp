@@ -558,6 +558,10 @@ TEST_F(DnDriveTest, Parameters_ReadWriteRangeAndErrors) {
   auto cam = drive_->WriteParameter(ParameterRef{0x63, false}, 100);
   EXPECT_EQ(cam.code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_EQ(GetCodedError(cam), std::optional<uint16_t>(kCodedEncoderNotExists));
+  ASSERT_TRUE(drive_->AcknowledgeFault().ok());
+  // A Get the drive cannot serve answers 0 and raises the coded error: an error, not a value.
+  auto encoder = drive_->ReadParameter(ParameterRef{0x60, false});
+  EXPECT_EQ(GetCodedError(encoder.status()), std::optional<uint16_t>(kCodedEncoderNotExists));
 }
 
 // Native pass-through: raw command word + value; T handled by the gateway.
