@@ -437,6 +437,8 @@ TEST_F(DnDriveTest, Disable_LeavesRun_MoveAborted) {
   EXPECT_EQ(drive_->GetStatus().state, DriveState::kReady);
   EXPECT_EQ(WaitFinal(move.id).state, CommandState::kAborted);
   EXPECT_EQ(Sim().device.control_word, ControlWord::kStopRequest);
+  // Leaving RUN brakes the slider with the filter deceleration; enable again at standstill.
+  WaitUntil([](const DriveStatus& s) { return std::fabs(s.velocity_mm_s) < 0.5; });
   Enable();
 }
 
