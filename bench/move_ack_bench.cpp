@@ -6,6 +6,8 @@
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -197,6 +199,7 @@ int main(int argc, char** argv) {
   o.config.data_dir = tmpl;
   o.demo_first_port = 0;
   o.demo_master_port = 0;
+  o.demo_can_port = static_cast<uint16_t>(20000 + ::getpid() % 20000);  // a bus of its own
   auto gw = Gateway::Start(std::move(o));
   if (!gw.ok()) {
     std::fprintf(stderr, "gateway: %s\n", std::string(gw.status().message()).c_str());

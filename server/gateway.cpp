@@ -19,6 +19,7 @@
 #include "server/grpc/worker_pool.h"
 #include "server/rest/server.h"
 #include "sim/linmot/server.h"
+#include "sim/linmot_devicenet/server.h"
 #include "storage/audit_log.h"
 #include "storage/config_repo.h"
 #include "storage/db.h"
@@ -44,6 +45,7 @@ struct Gateway::Impl {
   std::unique_ptr<storage::Db> db;
   std::unique_ptr<storage::AuditLog> audit;
   std::map<std::string, std::unique_ptr<sim::linmot::LinMotServer>> sims;
+  std::map<std::string, std::unique_ptr<sim::linmot_devicenet::LinMotDnServer>> dn_sims;
   std::vector<std::shared_ptr<Drive>> drives;
   std::unique_ptr<DriveServiceCore> core;
   std::unique_ptr<WorkerPool> pool;
@@ -104,6 +106,31 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
       dc.linudp->master_port = options.demo_master_port;
       impl->sims[dc.name] = std::move(*server);
     }
+    // One LinMot DeviceNet drive on the user-space CAN bus (issue 3): MAC ID 5, gateway MAC 0.
+    DriveConfig dn;
+    dn.name = "d1";
+    dn.family = "linmot-devicenet";
+    dn.axis.min_mm = 0;
+    dn.axis.max_mm = 150;
+    dn.axis.max_velocity_mm_s = 1000;
+    dn.axis.max_acceleration_mm_s2 = 10000;
+    CanBusConfig bus;
+    bus.kind = CanBusConfig::Kind::kUdpMulticast;
+    bus.group = options.demo_can_group;
+    bus.port = options.demo_can_port;
+    dn.can = bus;
+    dn.mac_id = 5;
+    sim::linmot_devicenet::DnSimOptions dso;
+    dso.name = dn.name;
+    dso.can = bus;
+    dso.mac_id = *dn.mac_id;
+    auto dn_server = sim::linmot_devicenet::LinMotDnServer::Start(dso, clock);
+    if (!dn_server.ok()) {
+      return absl::Status(dn_server.status().code(),
+                          absl::StrCat("demo drive '", dn.name, "' simulator: ", dn_server.status().message()));
+    }
+    impl->dn_sims[dn.name] = std::move(*dn_server);
+    drive_configs.push_back(std::move(dn));
   }
 
   // One configuration snapshot per start, so the audit trail knows what was running.
@@ -167,6 +194,11 @@ sim::linmot::LinMotServer* Gateway::demo_simulator(const std::string& drive) con
   return it == impl_->sims.end() ? nullptr : it->second.get();
 }
 
+sim::linmot_devicenet::LinMotDnServer* Gateway::demo_devicenet_simulator(const std::string& drive) const {
+  auto it = impl_->dn_sims.find(drive);
+  return it == impl_->dn_sims.end() ? nullptr : it->second.get();
+}
+
 void Gateway::Stop() {
   if (!impl_ || impl_->stopped) return;
   impl_->stopped = true;
@@ -176,6 +208,7 @@ void Gateway::Stop() {
   if (impl_->pool) impl_->pool->Shutdown();
   for (auto& d : impl_->drives) d->Deactivate();
   for (auto& [name, sim] : impl_->sims) sim->Stop();
+  for (auto& [name, sim] : impl_->dn_sims) sim->Stop();
   log::Info("gateway_stopped");
 }
 

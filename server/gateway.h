@@ -15,6 +15,9 @@
 namespace drivegw::sim::linmot {
 class LinMotServer;
 }
+namespace drivegw::sim::linmot_devicenet {
+class LinMotDnServer;
+}
 
 namespace drivegw::server {
 
@@ -24,6 +27,11 @@ struct GatewayOptions {
   // the master port both sides use. 0 = ephemeral ports, for tests running in parallel.
   uint16_t demo_first_port = 49360;
   uint16_t demo_master_port = 41136;
+  // Demo mode: the user-space CAN bus (UDP multicast, python-can compatible) the simulated
+  // DeviceNet drive and the gateway share. Tests pass a port of their own so runs in parallel
+  // never share a bus.
+  std::string demo_can_group = "239.74.163.2";
+  uint16_t demo_can_port = 43113;
   std::string static_dir;  // web assets served at / (empty: none)
 };
 
@@ -41,6 +49,7 @@ class Gateway {
   // The embedded simulator behind a demo drive (nullptr outside demo mode), for fault
   // injection in tests and demos.
   sim::linmot::LinMotServer* demo_simulator(const std::string& drive) const;
+  sim::linmot_devicenet::LinMotDnServer* demo_devicenet_simulator(const std::string& drive) const;
 
   // Stops servers, drives and simulators; idempotent. The destructor calls it.
   void Stop();

@@ -220,6 +220,8 @@ absl::StatusOr<v1::NativeCommandResponse> DriveServiceCore::SendNativeCommand(co
   std::string drive_name = drive.ok() ? (*drive)->config().name : r.name();
   if (!drive.ok()) {
     out = drive.status();
+  } else if (auto fam = ValidateNativeFamily(r, (*drive)->config().family); !fam.ok()) {
+    out = fam;
   } else if (auto req = ValidateNative(r); !req.ok()) {
     out = req.status();
   } else if (auto reply = (*drive)->SendNative(*req); !reply.ok()) {

@@ -142,6 +142,31 @@ absl::StatusOr<NativeRequest> ValidateNative(const v1::SendNativeCommandRequest&
   return FieldError("command", "one of linmot_motion, linmot_rtc, linmot_devicenet is required");
 }
 
+absl::Status ValidateNativeFamily(const v1::SendNativeCommandRequest& r, const std::string& family) {
+  std::string field;
+  std::string wanted;
+  switch (r.command_case()) {
+    case v1::SendNativeCommandRequest::kLinmotMotion:
+      field = "linmot_motion";
+      wanted = "linmot";
+      break;
+    case v1::SendNativeCommandRequest::kLinmotRtc:
+      field = "linmot_rtc";
+      wanted = "linmot";
+      break;
+    case v1::SendNativeCommandRequest::kLinmotDevicenet:
+      field = "linmot_devicenet";
+      wanted = "linmot-devicenet";
+      break;
+    case v1::SendNativeCommandRequest::COMMAND_NOT_SET:
+      return absl::OkStatus();  // ValidateNative names the missing field
+  }
+  if (family != wanted) {
+    return FieldError(field, absl::StrCat("is a ", wanted, " command; drive family is ", family));
+  }
+  return absl::OkStatus();
+}
+
 absl::Status ValidateParameterId(const char* request, const std::string& family, uint32_t parameter_id) {
   // LinMot addresses parameters by 16-bit UPID (linmot-mc.md §9.1).
   if (family.rfind("linmot", 0) == 0 && parameter_id > 0xFFFF) {

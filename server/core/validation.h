@@ -19,6 +19,8 @@ absl::StatusOr<MotionCommand> ValidateMoveRelative(const v1::MoveRelativeRequest
 absl::StatusOr<MotionCommand> ValidateMoveVelocity(const v1::MoveVelocityRequest& r, const AxisConfig& axis);
 absl::StatusOr<MotionCommand> ValidateStop(const v1::StopRequest& r, const AxisConfig& axis);
 absl::StatusOr<NativeRequest> ValidateNative(const v1::SendNativeCommandRequest& r);
+// The native command must be one of the drive's own family (FieldError naming the oneof field).
+absl::Status ValidateNativeFamily(const v1::SendNativeCommandRequest& r, const std::string& family);
 absl::Status ValidateParameterId(const char* request, const std::string& family, uint32_t parameter_id);
 
 }  // namespace drivegw::server

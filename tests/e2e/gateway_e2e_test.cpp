@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <future>
+#include <random>
 #include <thread>
 
 #include "drivegw/v1/drive.grpc.pb.h"
@@ -36,6 +37,9 @@ class GatewayE2eTest : public ::testing::Test {
     o.config.demo = true;
     o.demo_first_port = 0;   // ephemeral simulator ports: ctest runs in parallel
     o.demo_master_port = 0;  // ephemeral master port; the simulators answer any source port
+    // A CAN bus of this test's own: parallel ctest runs must not share one.
+    std::random_device rd;
+    o.demo_can_port = static_cast<uint16_t>(20000 + rd() % 20000);
     auto gw = Gateway::Start(std::move(o));
     ASSERT_TRUE(gw.ok()) << gw.status();
     gw_ = std::move(*gw);
@@ -77,10 +81,12 @@ TEST_F(GatewayE2eTest, ListDrives_Demo_ListsTwoOnlineDrives) {
   grpc::ClientContext ctx;
   v1::ListDrivesResponse resp;
   ASSERT_TRUE(stub_->ListDrives(&ctx, v1::ListDrivesRequest(), &resp).ok());
-  ASSERT_EQ(resp.drives_size(), 2);
+  ASSERT_EQ(resp.drives_size(), 3);
   EXPECT_EQ(resp.drives(0).name(), "drives/x1");
   EXPECT_EQ(resp.drives(1).name(), "drives/x2");
+  EXPECT_EQ(resp.drives(2).name(), "drives/d1");
   EXPECT_EQ(resp.drives(0).family(), "linmot");
+  EXPECT_EQ(resp.drives(2).family(), "linmot-devicenet");
   EXPECT_NE(resp.drives(0).status().state(), v1::OFFLINE);
 }
 
@@ -234,6 +240,28 @@ TEST_F(GatewayE2eTest, Rest_EnableAndMove_ReachesTargetAndIsAudited) {
   EXPECT_NE((*records)[0].request_json.find("position_mm"), std::string::npos);
 }
 
+TEST_F(GatewayE2eTest, Rest_DeviceNetDemoDrive_EnablesAndMoves) {
+  // The DeviceNet drive on the user-space CAN bus behind the same API (issue 3).
+  const v1::Drive online = WaitFor("drives/d1", [](const v1::Drive& d) {
+    return d.status().state() != v1::OFFLINE && d.status().state() != v1::DRIVE_STATE_UNSPECIFIED;
+  }, std::chrono::seconds(15));
+  ASSERT_NE(online.status().state(), v1::OFFLINE) << online.ShortDebugString();
+  auto en = HttpRequest(http(), "POST", "/v1/drives/d1:enable", "");
+  ASSERT_EQ(en.status, 200) << en.body;
+  EXPECT_NE(en.body.find("\"DONE\""), std::string::npos) << en.body;
+  auto home = HttpRequest(http(), "POST", "/v1/drives/d1:home", "");
+  ASSERT_EQ(home.status, 200) << home.body;
+  WaitFor("drives/d1", [](const v1::Drive& d) { return d.status().homed(); }, std::chrono::seconds(15));
+  auto mv = HttpRequest(http(), "POST", "/v1/drives/d1:moveAbsolute",
+                        R"({"position_mm": 40, "velocity_mm_s": 500, "acceleration_mm_s2": 5000})");
+  ASSERT_EQ(mv.status, 200) << mv.body;
+  const v1::Drive d = WaitFor("drives/d1", [](const v1::Drive& d) {
+    return d.status().last_command().kind() == "MoveAbsolute" && d.status().last_command().state() == v1::DONE;
+  }, std::chrono::seconds(15));
+  EXPECT_EQ(d.status().last_command().state(), v1::DONE) << d.ShortDebugString();
+  EXPECT_NEAR(d.status().position_mm(), 40, 0.05);
+}
+
 TEST_F(GatewayE2eTest, Rest_BadInput_ClearErrorsAndGatewayStaysUp) {
   auto bad_json = HttpRequest(http(), "POST", "/v1/drives/x1:moveAbsolute", "{\"position_mm\": \"far\"}");
   EXPECT_EQ(bad_json.status, 400) << bad_json.body;
@@ -251,6 +279,12 @@ TEST_F(GatewayE2eTest, Rest_BadInput_ClearErrorsAndGatewayStaysUp) {
   auto not_enabled = HttpRequest(http(), "POST", "/v1/drives/x1:moveAbsolute",
                                  R"({"position_mm": 20, "velocity_mm_s": 100, "acceleration_mm_s2": 1000})");
   EXPECT_EQ(not_enabled.status, 400) << not_enabled.body;  // FAILED_PRECONDITION: drive not enabled
+
+  // A native command of another family is refused by name, and the gateway stays up.
+  auto wrong_family = HttpRequest(http(), "POST", "/v1/drives/x1:sendNativeCommand",
+                                  R"({"linmot_devicenet": {"command": 17, "value": 5}})");
+  EXPECT_EQ(wrong_family.status, 400) << wrong_family.body;
+  EXPECT_NE(wrong_family.body.find("linmot_devicenet"), std::string::npos) << wrong_family.body;
 
   auto openapi = HttpRequest(http(), "GET", "/openapi.json");
   EXPECT_EQ(openapi.status, 200);

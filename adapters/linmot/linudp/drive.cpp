@@ -1182,7 +1182,12 @@ absl::StatusOr<NativeReply> LinMotUdpDrive::SendNative(const NativeRequest& req)
     out.word4 = r.word4;
     return out;
   }
-  const auto& m = std::get<LinMotMcRequest>(req);
+  const auto* mp = std::get_if<LinMotMcRequest>(&req);
+  if (mp == nullptr) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "drive '", name_, "': send_native: family linmot takes linmot_motion or linmot_rtc"));
+  }
+  const LinMotMcRequest& m = *mp;
   const std::string where = absl::StrCat("drive '", name_, "': send_native.mc");
   if (m.sub_id > 0x0F) {
     return absl::InvalidArgumentError(absl::StrCat(where, ".sub_id: ", m.sub_id, " exceeds 15"));
