@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <ostream>
 #include <memory>
 #include <optional>
 #include <string>
@@ -54,6 +55,8 @@ struct FamilyCase {
   std::string name;  // test name suffix: "linmot"
   std::function<std::unique_ptr<FamilyFixture>()> make;
 };
+// gtest prints the parameter by this (otherwise as raw bytes in every test name ctest shows).
+inline void PrintTo(const FamilyCase& c, std::ostream* os) { *os << c.name; }
 
 // Families under contract (one line per family, defined next to each fixture).
 std::unique_ptr<FamilyFixture> MakeLinMotUdpFixture();
