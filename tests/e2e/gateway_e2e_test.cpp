@@ -76,7 +76,7 @@ class GatewayE2eTest : public ::testing::Test {
   std::unique_ptr<v1::DriveService::Stub> stub_;
 };
 
-TEST_F(GatewayE2eTest, ListDrives_Demo_ListsTwoOnlineDrives) {
+TEST_F(GatewayE2eTest, ListDrives_Demo_ListsEveryFamilyOnline) {
   WaitFor("drives/x1", [](const v1::Drive& d) { return d.status().state() != v1::OFFLINE; });
   grpc::ClientContext ctx;
   v1::ListDrivesResponse resp;
