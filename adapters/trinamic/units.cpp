@@ -9,10 +9,18 @@
 namespace drivegw::trinamic {
 namespace {
 
+// Integral values print without exponent ("2147483647", not "2.14748e+09").
+std::string Num(double v) {
+  if (std::fabs(v) < 1e15 && v == std::trunc(v)) return absl::StrCat(static_cast<int64_t>(v));
+  return absl::StrCat(v);
+}
+
 absl::Status Range(const char* field, double v, double min, double max) {
   if (!std::isfinite(v)) return absl::InvalidArgumentError(absl::StrCat(field, ": not finite"));
-  if (v > max) return absl::InvalidArgumentError(absl::StrCat(field, ": ", v, " exceeds ", max));
-  if (v < min) return absl::InvalidArgumentError(absl::StrCat(field, ": ", v, " below ", min));
+  if (v > max)
+    return absl::InvalidArgumentError(absl::StrCat(field, ": ", Num(v), " exceeds ", Num(max)));
+  if (v < min)
+    return absl::InvalidArgumentError(absl::StrCat(field, ": ", Num(v), " below ", Num(min)));
   return absl::OkStatus();
 }
 
