@@ -141,7 +141,7 @@ const std::array<OpcodeSpec, kOpcodeCount>& Table() {
       Query(O::kReadInputs, "read_inputs", {F("channel", kU8, 0, 0, 7), Ra(1)},
             {T("channel", kU8, 0), T("analog", kU16, 1), T("ref_input", kU8, 3),
              T("ref_inputs", kU8, 4), T("ttlio1", kU8, 5)}),
-      // L794-801: channel of a motor's analogue input (decision 1016), limits as u16.
+      // L794-801: channel of a motor's analogue input (decision 1014), limits as u16.
       Row(O::kAnalogStopLimits, "analog_stop_limits",
           {F("channel", kU8, 0, 0, kMotorCount - 1), T("min_left", kU16, 1),
            T("max_right", kU16, 3)}),
@@ -182,7 +182,7 @@ const std::array<OpcodeSpec, kOpcodeCount>& Table() {
       Query(O::kEepromWrite, "eeprom_write",
             {Ra(0), T("magic", kU16, 1), T("eeprom_address", kU16, 3), T("value", kU16, 5)},
             {T("ok", kU8, 0)}),
-      // G-22: printed as a copy of $F6 (decision 1017).
+      // G-22: printed as a copy of $F6 (decision 1016).
       Query(O::kEepromRead, "eeprom_read",
             {Ra(0), T("magic", kU16, 1), T("eeprom_address", kU16, 3), T("value", kU16, 5)},
             {T("ok", kU8, 0)}),
