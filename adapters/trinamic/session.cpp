@@ -1,0 +1,509 @@
+// Trinamic controller session: serial and CAN links plus the shared serialised Transact logic.
+// Reference: shared/protocols/trinamic-sixpack.md §2.3-2.6, §3.1, §3.4, §4.2 $43.
+#include "adapters/trinamic/session.h"
+
+#include <algorithm>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "adapters/transport/can_frame.h"
+
+namespace drivegw::trinamic {
+namespace {
+
+using std::chrono::duration_cast;
+using std::chrono::microseconds;
+using std::chrono::milliseconds;
+using std::chrono::nanoseconds;
+
+std::string Hex(uint8_t b) {
+  static const char* kDigits = "0123456789ABCDEF";
+  return std::string("$") + kDigits[b >> 4] + kDigits[b & 15];
+}
+
+nanoseconds Remaining(Deadline deadline) {
+  auto left = deadline - SessionClock::now();
+  return left > nanoseconds(0) ? duration_cast<nanoseconds>(left) : nanoseconds(0);
+}
+
+void Add(SessionCounters& to, const SessionCounters& d) {
+  to.requests += d.requests;
+  to.replies += d.replies;
+  to.timeouts += d.timeouts;
+  to.garbage += d.garbage;
+  to.resyncs += d.resyncs;
+  to.stray_zeros += d.stray_zeros;
+  to.unsolicited += d.unsolicited;
+  to.duplicate_replies += d.duplicate_replies;
+  to.resets_seen += d.resets_seen;
+  to.probes += d.probes;
+  to.probe_failures += d.probe_failures;
+  to.offline_events += d.offline_events;
+  to.io_errors += d.io_errors;
+}
+
+// Serial link (§2): 9-byte words, R8/R9 replies detected at connect (G-01, decision 1051).
+class SerialLink final : public SessionLink {
+ public:
+  SerialLink(transport::SerialConfig config, milliseconds break_duration)
+      : config_(std::move(config)), break_duration_(break_duration) {}
+
+  std::string Name() const override { return "serial " + config_.device; }
+
+  absl::Status Open() override {
+    if (port_.has_value()) return absl::OkStatus();
+    auto port = transport::SerialPort::Open(config_);
+    if (!port.ok()) return port.status();
+    port_.emplace(std::move(*port));
+    return absl::OkStatus();
+  }
+  void Close() override {
+    port_.reset();
+    framing_.reset();
+  }
+
+  size_t Drain(uint64_t& stray_zeros) override {
+    if (!port_) return 0;
+    auto bytes = port_->ReadAvailable(nanoseconds(0));
+    if (!bytes.ok()) return 0;
+    size_t dropped = 0;
+    for (uint8_t b : *bytes) {
+      if (b == 0) {
+        ++stray_zeros;
+      } else {
+        ++dropped;
+      }
+    }
+    return dropped;
+  }
+
+  absl::Status Send(const Command& command) override {
+    if (!port_) return absl::UnavailableError(Name() + ": not open");
+    auto bytes = EncodeCommand(command);
+    if (!bytes.ok()) return bytes.status();
+    return port_->Write(*bytes);
+  }
+
+  absl::StatusOr<Reply> Receive(const Command& command, uint8_t ra, Deadline deadline, bool detect,
+                                SessionCounters& c) override {
+    if (!port_) return absl::UnavailableError(Name() + ": not open");
+    // First byte: 00 bytes after a reset are discarded (§2.4, L228, L902).
+    uint8_t first = 0;
+    for (;;) {
+      auto b = port_->ReadExactly(1, Remaining(deadline));
+      if (!b.ok()) return b.status();
+      if ((*b)[0] != 0) {
+        first = (*b)[0];
+        break;
+      }
+      ++c.stray_zeros;
+    }
+    const uint8_t op = static_cast<uint8_t>(command.opcode);
+    if (detect) {
+      auto f = DetectReplyFraming(first, ra);
+      if (!f.ok())
+        return Garbage(c, absl::StrCat("first reply byte ", Hex(first), " is neither RA ", Hex(ra),
+                                       " nor a reply opcode"));
+      framing_ = *f;
+    } else if (!framing_) {
+      return absl::FailedPreconditionError(Name() + ": reply framing not detected");
+    }
+    const uint8_t expected = *framing_ == ReplyFraming::kR9 ? ra : op;
+    if (first != expected) {
+      return Garbage(c,
+                     absl::StrCat("first reply byte ", Hex(first), ", expected ", Hex(expected)));
+    }
+    std::vector<uint8_t> bytes{first};
+    auto rest = port_->ReadExactly(ReplySize(*framing_) - 1, Remaining(deadline));
+    if (!rest.ok()) {
+      // Half a word on the line: resynchronise before the next request (§2.6, L279).
+      Resync(c);
+      auto partial = transport::PartialReadBytes(rest.status());
+      return absl::Status(rest.status().code(),
+                          absl::StrCat(std::string(rest.status().message()), " (",
+                                       std::to_string(partial.size() + 1), " reply bytes)"));
+    }
+    bytes.insert(bytes.end(), rest->begin(), rest->end());
+    auto reply = DecodeReply(bytes, *framing_);
+    if (!reply.ok()) return Garbage(c, std::string(reply.status().message()));
+    if (reply->opcode != command.opcode) {
+      return Garbage(c, absl::StrCat("reply opcode ", Hex(static_cast<uint8_t>(reply->opcode))));
+    }
+    if (*framing_ == ReplyFraming::kR8) reply->response_address = ra;
+    return *reply;
+  }
+
+  bool SecondAnswer(microseconds window, SessionCounters& c) override {
+    if (!port_) return false;
+    auto extra = port_->ReadAvailable(window);
+    if (!extra.ok() || extra->empty()) return false;
+    auto first = std::find_if(extra->begin(), extra->end(), [](uint8_t b) { return b != 0; });
+    c.stray_zeros += static_cast<uint64_t>(first - extra->begin());
+    if (first == extra->end()) return false;
+    (void)port_->Flush();
+    ++c.resyncs;
+    return true;
+  }
+
+  std::optional<ReplyFraming> framing() const override { return framing_; }
+
+ private:
+  absl::Status Garbage(SessionCounters& c, const std::string& what) {
+    ++c.garbage;
+    Resync(c);
+    return absl::DataLossError(what);
+  }
+  // Flush, break, flush (§2.3 L279: a break aborts a partial word; §2.6).
+  void Resync(SessionCounters& c) {
+    ++c.resyncs;
+    (void)port_->Flush();
+    (void)port_->SendBreak(break_duration_);
+    (void)port_->Flush();
+  }
+
+  transport::SerialConfig config_;
+  milliseconds break_duration_;
+  std::optional<transport::SerialPort> port_;
+  std::optional<ReplyFraming> framing_;
+};
+
+// CAN link (§3.1): command ID A << 3, reply ID RA << 3, 8 data bytes.
+class CanLink final : public SessionLink {
+ public:
+  explicit CanLink(std::unique_ptr<transport::CanChannel> channel) : channel_(std::move(channel)) {}
+
+  std::string Name() const override { return "can " + channel_->name(); }
+  absl::Status Open() override { return absl::OkStatus(); }
+  void Close() override {}
+
+  size_t Drain(uint64_t&) override {
+    size_t n = 0;
+    for (;;) {
+      auto f = channel_->Receive(nanoseconds(0));
+      if (!f.ok() || !f->has_value()) return n;
+      if (IsReply(**f)) ++n;
+    }
+  }
+
+  absl::Status Send(const Command& command) override {
+    auto frame = EncodeCommandCan(command);
+    if (!frame.ok()) return frame.status();
+    reply_id_ = 0;
+    return channel_->Send(transport::MakeCanFrame(frame->id, frame->data));
+  }
+
+  absl::StatusOr<Reply> Receive(const Command& command, uint8_t ra, Deadline deadline, bool,
+                                SessionCounters& c) override {
+    auto id = ReplyCanId(ra);
+    if (!id.ok()) return id.status();
+    reply_id_ = *id;
+    for (;;) {
+      auto left = Remaining(deadline);
+      if (left <= nanoseconds(0)) return absl::DeadlineExceededError("no reply frame");
+      auto f = channel_->Receive(left);
+      if (!f.ok()) return f.status();
+      if (!f->has_value()) continue;
+      if (!IsReply(**f)) continue;  // other nodes' traffic
+      auto reply = Decode(**f);
+      if (!reply.ok() || reply->opcode != command.opcode) {
+        ++c.garbage;  // a late reply to an earlier query or a bad frame: dropped (§2.6)
+        continue;
+      }
+      return *reply;
+    }
+  }
+
+  bool SecondAnswer(microseconds window, SessionCounters&) override {
+    const Deadline end = SessionClock::now() + window;
+    for (;;) {
+      auto left = Remaining(end);
+      if (left <= nanoseconds(0)) return false;
+      auto f = channel_->Receive(left);
+      if (!f.ok()) return false;
+      if (f->has_value() && IsReply(**f)) return true;
+    }
+  }
+
+ private:
+  bool IsReply(const transport::CanFrame& f) const {
+    return reply_id_ != 0 && !f.extended && !f.rtr && !f.error && f.id == reply_id_;
+  }
+  static absl::StatusOr<Reply> Decode(const transport::CanFrame& f) {
+    CanFrame tf;
+    tf.id = static_cast<uint16_t>(f.id);
+    tf.dlc = f.dlc;
+    tf.data = f.data;
+    return DecodeReplyCan(tf);
+  }
+
+  std::unique_ptr<transport::CanChannel> channel_;
+  uint32_t reply_id_ = 0;
+};
+
+}  // namespace
+
+const char* ToString(LinkState state) {
+  switch (state) {
+    case LinkState::kUnknown:
+      return "UNKNOWN";
+    case LinkState::kOnline:
+      return "ONLINE";
+    case LinkState::kOffline:
+      return "OFFLINE";
+  }
+  return "?";
+}
+
+const char* ToString(SessionEvent event) {
+  switch (event) {
+    case SessionEvent::kGarbage:
+      return "garbage";
+    case SessionEvent::kDuplicateAddress:
+      return "duplicate_address";
+    case SessionEvent::kIoError:
+      return "io_error";
+  }
+  return "?";
+}
+
+absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::OpenSerial(
+    const transport::SerialConfig& config, const SessionOptions& options) {
+  if (auto s = transport::ValidateSerialConfig(config); !s.ok()) return s;
+  return Open(std::make_unique<SerialLink>(config, options.break_duration), options);
+}
+
+absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::OpenCan(
+    const CanBusConfig& bus, const SessionOptions& options) {
+  auto channel = transport::OpenCanChannel(bus);
+  if (!channel.ok()) return channel.status();
+  return OpenCan(std::move(*channel), options);
+}
+
+absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::OpenCan(
+    std::unique_ptr<transport::CanChannel> channel, const SessionOptions& options) {
+  if (!channel) return absl::InvalidArgumentError("trinamic can: no channel");
+  return Open(std::make_unique<CanLink>(std::move(channel)), options);
+}
+
+absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::Open(
+    std::unique_ptr<SessionLink> link, const SessionOptions& options) {
+  if (options.address == 0) {
+    return absl::InvalidArgumentError("trinamic session.address: 0 is not a unit address (1..255)");
+  }
+  if (auto s = ValidateResponseAddress(options.response_address); !s.ok()) return s;
+  if (options.response_address == options.address) {
+    return absl::InvalidArgumentError(
+        "trinamic session.response_address: equals the controller address (§2.4)");
+  }
+  if (options.offline_after_misses < 1) {
+    return absl::InvalidArgumentError("trinamic session.offline_after_misses: must be >= 1");
+  }
+  if (auto s = link->Open(); !s.ok()) return s;
+  return std::shared_ptr<ControllerSession>(new ControllerSession(std::move(link), options));
+}
+
+ControllerSession::ControllerSession(std::unique_ptr<SessionLink> link,
+                                     const SessionOptions& options)
+    : options_(options),
+      link_(std::move(link)),
+      name_(
+          absl::StrCat("trinamic ", link_->Name(), " address ", std::to_string(options.address))) {}
+
+int ControllerSession::AddObserver(SessionObserver* observer) {
+  std::lock_guard<std::mutex> lock(observers_mutex_);
+  observers_[next_observer_id_] = observer;
+  return next_observer_id_++;
+}
+
+void ControllerSession::RemoveObserver(int id) {
+  std::lock_guard<std::mutex> lock(observers_mutex_);
+  observers_.erase(id);
+}
+
+LinkState ControllerSession::link_state() const {
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  return state_;
+}
+
+std::optional<ReplyFraming> ControllerSession::framing() const {
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  return state_ == LinkState::kOnline ? link_->framing() : std::nullopt;
+}
+
+SessionCounters ControllerSession::counters() const {
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  return counters_;
+}
+
+std::string ControllerSession::Where(const Command& command) const {
+  return absl::StrCat(name_, ": ", SpecOf(command.opcode).name);
+}
+
+void ControllerSession::SetState(LinkState state, const std::string& reason) {
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    if (state_ == state) return;
+    state_ = state;
+    if (state == LinkState::kOffline) ++counters_.offline_events;
+  }
+  std::lock_guard<std::mutex> lock(observers_mutex_);
+  for (auto& [id, o] : observers_) o->OnLinkChange(state, reason);
+}
+
+void ControllerSession::Emit(SessionEvent event, const std::string& detail) {
+  std::lock_guard<std::mutex> lock(observers_mutex_);
+  for (auto& [id, o] : observers_) o->OnSessionEvent(event, detail);
+}
+
+void ControllerSession::CheckReset(const Reply& reply) {
+  // $43 reply P1 = reset flag, 1 at the first read-out after a reset (§4.2 $43, L853).
+  if (reply.opcode != Opcode::kUnitInformation || reply.values[1] == 0) return;
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    ++counters_.resets_seen;
+  }
+  std::lock_guard<std::mutex> lock(observers_mutex_);
+  for (auto& [id, o] : observers_) o->OnControllerReset(options_.address);
+}
+
+void ControllerSession::Miss(const std::string& reason) {
+  if (++misses_ < options_.offline_after_misses) return;
+  backoff_ = options_.retry_min;
+  next_probe_ = SessionClock::now() + backoff_;
+  SetState(LinkState::kOffline,
+           absl::StrCat(std::to_string(misses_), " consecutive misses, last: ", reason));
+}
+
+absl::StatusOr<Reply> ControllerSession::Exchange(const Command& command, Deadline deadline,
+                                                  bool detect) {
+  SessionCounters d;
+  // §2.5 [P]: at least command_gap after the end of the previous word (L303).
+  std::this_thread::sleep_until(last_word_end_ + options_.command_gap);
+  // Late replies or garbage pending now would be taken for this request's reply: dropped.
+  d.unsolicited += link_->Drain(d.stray_zeros);
+  ++d.requests;
+  absl::Status sent = link_->Send(command);
+  absl::StatusOr<Reply> reply = absl::UnknownError("not sent");
+  bool duplicate = false;
+  if (!sent.ok()) {
+    reply = sent;
+  } else if (!SpecOf(command.opcode).has_reply) {
+    reply = absl::NotFoundError("");  // silent command
+  } else {
+    reply = link_->Receive(command, options_.response_address, deadline, detect, d);
+    if (reply.ok()) {
+      ++d.replies;
+      duplicate = link_->SecondAnswer(options_.duplicate_window, d);
+      if (duplicate) ++d.duplicate_replies;
+    } else if (reply.status().code() == absl::StatusCode::kDeadlineExceeded) {
+      ++d.timeouts;
+    }
+  }
+  last_word_end_ = SessionClock::now();
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    Add(counters_, d);
+  }
+  if (duplicate) {
+    std::string what =
+        absl::StrCat(Where(command), ": a second controller answered with the same address");
+    Emit(SessionEvent::kDuplicateAddress, what);
+    return absl::FailedPreconditionError(what);
+  }
+  return reply;
+}
+
+absl::Status ControllerSession::ProbeLocked() {
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    ++counters_.probes;
+  }
+  Command probe;
+  probe.address = options_.address;
+  probe.opcode = Opcode::kUnitInformation;
+  probe.values[0] = options_.response_address;
+  absl::Status opened = link_->Open();
+  absl::StatusOr<Reply> reply =
+      opened.ok() ? Exchange(probe, SessionClock::now() + options_.probe_timeout, /*detect=*/true)
+                  : absl::StatusOr<Reply>(opened);
+  if (!reply.ok()) {
+    {
+      std::lock_guard<std::mutex> lock(state_mutex_);
+      ++counters_.probe_failures;
+    }
+    backoff_ = std::min(options_.retry_max, std::max(options_.retry_min, backoff_ * 2));
+    next_probe_ = SessionClock::now() + backoff_;
+    std::string why =
+        absl::StrCat(Where(probe), ": probe failed: ", std::string(reply.status().message()));
+    SetState(LinkState::kOffline, why);
+    return absl::UnavailableError(why);
+  }
+  misses_ = 0;
+  backoff_ = milliseconds(0);
+  SetState(LinkState::kOnline, "unit information answered");
+  CheckReset(*reply);
+  return absl::OkStatus();
+}
+
+absl::Status ControllerSession::Probe() {
+  std::lock_guard<std::mutex> lock(io_mutex_);
+  return ProbeLocked();
+}
+
+absl::StatusOr<std::optional<Reply>> ControllerSession::Transact(const Command& command,
+                                                                 Deadline deadline) {
+  if (command.address != options_.address) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(Where(command), ": command for address ", std::to_string(command.address)));
+  }
+  if (auto s = ValidateCommand(command); !s.ok()) return s;
+  std::lock_guard<std::mutex> lock(io_mutex_);
+  if (link_state() != LinkState::kOnline) {
+    if (link_state() == LinkState::kOffline && SessionClock::now() < next_probe_) {
+      return absl::UnavailableError(absl::StrCat(Where(command), ": controller OFFLINE"));
+    }
+    if (auto s = ProbeLocked(); !s.ok()) return s;
+  }
+  auto reply = Exchange(command, deadline, /*detect=*/false);
+  if (reply.ok()) {
+    misses_ = 0;
+    CheckReset(*reply);
+    return std::optional<Reply>(*reply);
+  }
+  const absl::Status& s = reply.status();
+  switch (s.code()) {
+    case absl::StatusCode::kNotFound:
+      return std::optional<Reply>();  // silent command sent
+    case absl::StatusCode::kFailedPrecondition:
+      return s;  // duplicate address: reported, the link itself answered
+    case absl::StatusCode::kDeadlineExceeded: {
+      std::string what =
+          absl::StrCat(Where(command), ": no reply (", std::string(s.message()), ")");
+      Miss(what);
+      return absl::DeadlineExceededError(what);
+    }
+    case absl::StatusCode::kDataLoss: {
+      std::string what = absl::StrCat(Where(command), ": garbage on the line, resynchronised (",
+                                      std::string(s.message()), ")");
+      Emit(SessionEvent::kGarbage, what);
+      Miss(what);
+      return absl::UnavailableError(what);
+    }
+    default: {
+      std::string what = absl::StrCat(Where(command), ": ", std::string(s.message()));
+      {
+        std::lock_guard<std::mutex> l(state_mutex_);
+        ++counters_.io_errors;
+      }
+      Emit(SessionEvent::kIoError, what);
+      link_->Close();  // reopened by the next probe
+      misses_ = options_.offline_after_misses - 1;
+      Miss(what);
+      return absl::UnavailableError(what);
+    }
+  }
+}
+
+}  // namespace drivegw::trinamic

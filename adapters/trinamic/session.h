@@ -1,0 +1,169 @@
+// Trinamic controller session: the serialised request/reply layer of one PACK over serial or CAN.
+// Reference: shared/protocols/trinamic-sixpack.md §2.3-2.6 (serial), §3.1/§3.4 (CAN), §4.2 $43;
+// decisions docs/decisions/1051-1058.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "adapters/core/drive_config.h"
+#include "adapters/transport/can_channel.h"
+#include "adapters/transport/serial_port.h"
+#include "adapters/trinamic/codec.h"
+
+namespace drivegw::trinamic {
+
+using SessionClock = std::chrono::steady_clock;
+using Deadline = SessionClock::time_point;
+
+struct SessionOptions {
+  uint8_t address = 1;              // unit address A of the controller (§2.2, 1..255, G-05)
+  uint8_t response_address = 0xF0;  // RA of every query (§2.4 project default; 1052)
+  int offline_after_misses = 3;     // consecutive missed/garbled replies → OFFLINE (1054)
+  std::chrono::milliseconds probe_timeout{200};  // one $43 probe (framing detection, G-01)
+  std::chrono::milliseconds retry_min{100};      // reconnect back-off, doubling ...
+  std::chrono::milliseconds retry_max{5000};     // ... up to this
+  // §2.5 [P]: consecutive words at least 2 ms apart (L303).
+  std::chrono::microseconds command_gap{2000};
+  // After a reply the session listens this long for a second answer (duplicate address, 1055).
+  std::chrono::microseconds duplicate_window{2000};
+  std::chrono::milliseconds break_duration{10};  // resync break (§2.3, L279)
+};
+
+struct SessionCounters {
+  uint64_t requests = 0;           // words sent (probes included)
+  uint64_t replies = 0;            // valid replies matched to their query
+  uint64_t timeouts = 0;           // queries without a (complete) reply
+  uint64_t garbage = 0;            // wrong first byte, undecodable reply, wrong opcode/RA
+  uint64_t resyncs = 0;            // Flush (+ break on serial) after garbage or a partial word
+  uint64_t stray_zeros = 0;        // 00 bytes discarded (after a reset, L228/L902)
+  uint64_t unsolicited = 0;        // bytes/frames pending before a request (late replies)
+  uint64_t duplicate_replies = 0;  // a second answer to one query (same address twice, 1055)
+  uint64_t resets_seen = 0;        // $43 replies with the reset flag set (L853)
+  uint64_t probes = 0;             // $43 connection probes
+  uint64_t probe_failures = 0;
+  uint64_t offline_events = 0;
+  uint64_t io_errors = 0;  // transport failures (link closed and reopened by the next probe)
+};
+
+enum class LinkState { kUnknown, kOnline, kOffline };
+const char* ToString(LinkState state);
+
+enum class SessionEvent { kGarbage, kDuplicateAddress, kIoError };
+const char* ToString(SessionEvent event);
+
+// Observers are called on the thread running Transact while the session's I/O lock is held:
+// they must be quick and must not call Transact/Probe synchronously (schedule it instead).
+class SessionObserver {
+ public:
+  virtual ~SessionObserver() = default;
+  // kOnline after a successful probe; kOffline after offline_after_misses misses or an I/O error.
+  virtual void OnLinkChange(LinkState state, const std::string& reason) noexcept {
+    (void)state;
+    (void)reason;
+  }
+  // A $43 reply carried the reset flag (§4.2 $43 P1, L853): every parameter is back at its
+  // default (G-24); the drive re-sends its parameter set.
+  virtual void OnControllerReset(uint8_t address) noexcept { (void)address; }
+  virtual void OnSessionEvent(SessionEvent event, const std::string& detail) noexcept {
+    (void)event;
+    (void)detail;
+  }
+};
+
+// The byte/frame side the session logic runs over (serial or CAN). Used under the session lock.
+class SessionLink {
+ public:
+  virtual ~SessionLink() = default;
+  virtual std::string Name() const = 0;
+  virtual absl::Status Open() = 0;  // no-op when already open
+  virtual void Close() = 0;
+  // Discards pending input before a request; returns how many bytes/frames were dropped and adds
+  // discarded 00 bytes to `stray_zeros`.
+  virtual size_t Drain(uint64_t& stray_zeros) = 0;
+  virtual absl::Status Send(const Command& command) = 0;
+  // The reply to `command`. DeadlineExceeded: nothing (complete) came; DataLoss: garbage (the
+  // link already resynchronised); other codes: the transport failed. `detect` = framing probe.
+  virtual absl::StatusOr<Reply> Receive(const Command& command, uint8_t response_address,
+                                        Deadline deadline, bool detect,
+                                        SessionCounters& counters) = 0;
+  // After a reply: listens `window` for a second answer; true if one came (extra input dropped).
+  virtual bool SecondAnswer(std::chrono::microseconds window, SessionCounters& counters) = 0;
+  virtual std::optional<ReplyFraming> framing() const { return std::nullopt; }
+};
+
+class ControllerSession {
+ public:
+  // Serial (RS-232/RS-485 per config.duplex; SerialPort honours config.turnaround, §2.5).
+  static absl::StatusOr<std::shared_ptr<ControllerSession>> OpenSerial(
+      const transport::SerialConfig& config, const SessionOptions& options);
+  // CAN: command ID = A << 3, reply ID = RA << 3 (§3.1). On a shared bus give every controller's
+  // session its own response address (1053).
+  static absl::StatusOr<std::shared_ptr<ControllerSession>> OpenCan(const CanBusConfig& bus,
+                                                                    const SessionOptions& options);
+  static absl::StatusOr<std::shared_ptr<ControllerSession>> OpenCan(
+      std::unique_ptr<transport::CanChannel> channel, const SessionOptions& options);
+  // Any link (tests, future transports).
+  static absl::StatusOr<std::shared_ptr<ControllerSession>> Open(std::unique_ptr<SessionLink> link,
+                                                                 const SessionOptions& options);
+
+  ControllerSession(const ControllerSession&) = delete;
+  ControllerSession& operator=(const ControllerSession&) = delete;
+
+  // One request, never interleaved with another (L357). Queries return their reply, silent
+  // commands nullopt. Not yet connected / OFFLINE with a probe due: a $43 probe runs first
+  // (framing detection, G-01); OFFLINE before the back-off ends: Unavailable at once.
+  // InvalidArgument for an invalid command or one for another address; DeadlineExceeded
+  // "trinamic <link> address 1: query_position: no reply ..." on a time-out; Unavailable for
+  // garbage (resynchronised), a failed transport or OFFLINE; FailedPrecondition when a second
+  // controller answered (duplicate address).
+  absl::StatusOr<std::optional<Reply>> Transact(const Command& command, Deadline deadline);
+  // Runs the $43 probe now (connect, framing detection, reset flag).
+  absl::Status Probe();
+
+  int AddObserver(SessionObserver* observer);
+  void RemoveObserver(int id);
+
+  LinkState link_state() const;
+  std::optional<ReplyFraming> framing() const;
+  SessionCounters counters() const;
+  std::string name() const { return name_; }
+  const SessionOptions& options() const { return options_; }
+
+ private:
+  ControllerSession(std::unique_ptr<SessionLink> link, const SessionOptions& options);
+  absl::Status ProbeLocked();
+  absl::StatusOr<Reply> Exchange(const Command& command, Deadline deadline, bool detect);
+  void Miss(const std::string& reason);
+  void SetState(LinkState state, const std::string& reason);
+  void CheckReset(const Reply& reply);
+  void Emit(SessionEvent event, const std::string& detail);
+  std::string Where(const Command& command) const;
+
+  const SessionOptions options_;
+  std::unique_ptr<SessionLink> link_;
+  const std::string name_;
+
+  std::mutex io_mutex_;  // serialises requests (L357)
+  Deadline last_word_end_{};
+  int misses_ = 0;
+  std::chrono::milliseconds backoff_{0};
+  Deadline next_probe_{};
+
+  mutable std::mutex state_mutex_;
+  LinkState state_ = LinkState::kUnknown;
+  SessionCounters counters_;
+
+  std::mutex observers_mutex_;
+  std::map<int, SessionObserver*> observers_;
+  int next_observer_id_ = 1;
+};
+
+}  // namespace drivegw::trinamic
