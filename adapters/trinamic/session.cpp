@@ -132,19 +132,23 @@ class SerialLink final : public SessionLink {
       return Garbage(c, absl::StrCat("reply opcode ", Hex(static_cast<uint8_t>(reply->opcode))));
     }
     if (*framing_ == ReplyFraming::kR8) reply->response_address = ra;
+    last_first_byte_ = first;
     return *reply;
   }
 
-  bool SecondAnswer(microseconds window, SessionCounters& c) override {
-    if (!port_) return false;
+  Extra AfterReply(microseconds window, SessionCounters& c) override {
+    if (!port_) return Extra::kNone;
     auto extra = port_->ReadAvailable(window);
-    if (!extra.ok() || extra->empty()) return false;
+    if (!extra.ok() || extra->empty()) return Extra::kNone;
     auto first = std::find_if(extra->begin(), extra->end(), [](uint8_t b) { return b != 0; });
     c.stray_zeros += static_cast<uint64_t>(first - extra->begin());
-    if (first == extra->end()) return false;
+    if (first == extra->end()) return Extra::kNone;
     (void)port_->Flush();
     ++c.resyncs;
-    return true;
+    // A second reply starts like the first one (RA under R9, the opcode under R8).
+    if (*first == last_first_byte_) return Extra::kDuplicate;
+    ++c.garbage;
+    return Extra::kGarbage;
   }
 
   std::optional<ReplyFraming> framing() const override { return framing_; }
@@ -167,12 +171,18 @@ class SerialLink final : public SessionLink {
   milliseconds break_duration_;
   std::optional<transport::SerialPort> port_;
   std::optional<ReplyFraming> framing_;
+  uint8_t last_first_byte_ = 0;
 };
 
 // CAN link (§3.1): command ID A << 3, reply ID RA << 3, 8 data bytes.
 class CanLink final : public SessionLink {
  public:
-  explicit CanLink(std::unique_ptr<transport::CanChannel> channel) : channel_(std::move(channel)) {}
+  CanLink(std::unique_ptr<transport::CanChannel> channel, uint32_t reply_id)
+      : channel_(std::move(channel)), reply_id_(reply_id) {
+    // Only our reply identifier RA << 3 (§3.1, L291); other nodes' traffic stays in the kernel.
+    const transport::CanFilter filter{reply_id, transport::kCanStandardIdMax, false};
+    (void)channel_->SetFilters(std::span<const transport::CanFilter>(&filter, 1));
+  }
 
   std::string Name() const override { return "can " + channel_->name(); }
   absl::Status Open() override { return absl::OkStatus(); }
@@ -190,15 +200,12 @@ class CanLink final : public SessionLink {
   absl::Status Send(const Command& command) override {
     auto frame = EncodeCommandCan(command);
     if (!frame.ok()) return frame.status();
-    reply_id_ = 0;
     return channel_->Send(transport::MakeCanFrame(frame->id, frame->data));
   }
 
   absl::StatusOr<Reply> Receive(const Command& command, uint8_t ra, Deadline deadline, bool,
                                 SessionCounters& c) override {
-    auto id = ReplyCanId(ra);
-    if (!id.ok()) return id.status();
-    reply_id_ = *id;
+    (void)ra;  // fixed at construction: reply_id_
     for (;;) {
       auto left = Remaining(deadline);
       if (left <= nanoseconds(0)) return absl::DeadlineExceededError("no reply frame");
@@ -215,20 +222,20 @@ class CanLink final : public SessionLink {
     }
   }
 
-  bool SecondAnswer(microseconds window, SessionCounters&) override {
+  Extra AfterReply(microseconds window, SessionCounters&) override {
     const Deadline end = SessionClock::now() + window;
     for (;;) {
       auto left = Remaining(end);
-      if (left <= nanoseconds(0)) return false;
+      if (left <= nanoseconds(0)) return Extra::kNone;
       auto f = channel_->Receive(left);
-      if (!f.ok()) return false;
-      if (f->has_value() && IsReply(**f)) return true;
+      if (!f.ok()) return Extra::kNone;
+      if (f->has_value() && IsReply(**f)) return Extra::kDuplicate;
     }
   }
 
  private:
   bool IsReply(const transport::CanFrame& f) const {
-    return reply_id_ != 0 && !f.extended && !f.rtr && !f.error && f.id == reply_id_;
+    return !f.extended && !f.rtr && !f.error && f.id == reply_id_;
   }
   static absl::StatusOr<Reply> Decode(const transport::CanFrame& f) {
     CanFrame tf;
@@ -239,7 +246,7 @@ class CanLink final : public SessionLink {
   }
 
   std::unique_ptr<transport::CanChannel> channel_;
-  uint32_t reply_id_ = 0;
+  const uint32_t reply_id_;
 };
 
 }  // namespace
@@ -284,7 +291,9 @@ absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::OpenCan(
 absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::OpenCan(
     std::unique_ptr<transport::CanChannel> channel, const SessionOptions& options) {
   if (!channel) return absl::InvalidArgumentError("trinamic can: no channel");
-  return Open(std::make_unique<CanLink>(std::move(channel)), options);
+  auto reply_id = ReplyCanId(options.response_address);
+  if (!reply_id.ok()) return reply_id.status();
+  return Open(std::make_unique<CanLink>(std::move(channel), *reply_id), options);
 }
 
 absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::Open(
@@ -387,6 +396,7 @@ absl::StatusOr<Reply> ControllerSession::Exchange(const Command& command, Deadli
   absl::Status sent = link_->Send(command);
   absl::StatusOr<Reply> reply = absl::UnknownError("not sent");
   bool duplicate = false;
+  bool garbage_after = false;
   if (!sent.ok()) {
     reply = sent;
   } else if (!SpecOf(command.opcode).has_reply) {
@@ -395,8 +405,10 @@ absl::StatusOr<Reply> ControllerSession::Exchange(const Command& command, Deadli
     reply = link_->Receive(command, options_.response_address, deadline, detect, d);
     if (reply.ok()) {
       ++d.replies;
-      duplicate = link_->SecondAnswer(options_.duplicate_window, d);
+      const auto extra = link_->AfterReply(options_.duplicate_window, d);
+      duplicate = extra == SessionLink::Extra::kDuplicate;
       if (duplicate) ++d.duplicate_replies;
+      if (extra == SessionLink::Extra::kGarbage) garbage_after = true;
     } else if (reply.status().code() == absl::StatusCode::kDeadlineExceeded) {
       ++d.timeouts;
     }
@@ -411,6 +423,9 @@ absl::StatusOr<Reply> ControllerSession::Exchange(const Command& command, Deadli
         absl::StrCat(Where(command), ": a second controller answered with the same address");
     Emit(SessionEvent::kDuplicateAddress, what);
     return absl::FailedPreconditionError(what);
+  }
+  if (garbage_after) {
+    Emit(SessionEvent::kGarbage, absl::StrCat(Where(command), ": bytes after the reply, flushed"));
   }
   return reply;
 }
@@ -475,6 +490,12 @@ absl::StatusOr<std::optional<Reply>> ControllerSession::Transact(const Command& 
   const absl::Status& s = reply.status();
   switch (s.code()) {
     case absl::StatusCode::kNotFound:
+      if (command.opcode == Opcode::kHardwareReset) {
+        // $CC: the PACK boots ca. 1 s (L900) and then reports the reset flag (L853, G-43).
+        next_probe_ = SessionClock::now() + options_.reset_boot_time;
+        backoff_ = options_.retry_min;
+        SetState(LinkState::kOffline, "hardware reset ($CC) sent");
+      }
       return std::optional<Reply>();  // silent command sent
     case absl::StatusCode::kFailedPrecondition:
       return s;  // duplicate address: reported, the link itself answered

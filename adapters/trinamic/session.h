@@ -35,6 +35,8 @@ struct SessionOptions {
   // After a reply the session listens this long for a second answer (duplicate address, 1055).
   std::chrono::microseconds duplicate_window{2000};
   std::chrono::milliseconds break_duration{10};  // resync break (§2.3, L279)
+  // After a $CC hardware reset the PACK boots for ca. 1 s (L900, G-43): OFFLINE until then.
+  std::chrono::milliseconds reset_boot_time{1000};
 };
 
 struct SessionCounters {
@@ -94,8 +96,11 @@ class SessionLink {
   virtual absl::StatusOr<Reply> Receive(const Command& command, uint8_t response_address,
                                         Deadline deadline, bool detect,
                                         SessionCounters& counters) = 0;
-  // After a reply: listens `window` for a second answer; true if one came (extra input dropped).
-  virtual bool SecondAnswer(std::chrono::microseconds window, SessionCounters& counters) = 0;
+  // After a reply: listens `window` for more input. kDuplicate: a second answer to the same query
+  // (another controller with this address, decision 1055); kGarbage: other bytes (dropped, the
+  // reply stands).
+  enum class Extra { kNone, kDuplicate, kGarbage };
+  virtual Extra AfterReply(std::chrono::microseconds window, SessionCounters& counters) = 0;
   virtual std::optional<ReplyFraming> framing() const { return std::nullopt; }
 };
 

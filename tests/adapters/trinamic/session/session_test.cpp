@@ -363,6 +363,84 @@ TEST(SessionTest, Transact_TwoAnswers_ReportsDuplicateAddress) {
   EXPECT_EQ(obs.events[0], SessionEvent::kDuplicateAddress);
 }
 
+TEST(SessionTest, Transact_BytesAfterReply_ReplyStandsGarbageCounted) {
+  ScriptedController ctl(ReplyFraming::kR9);
+  auto session = OpenSession(ctl);
+  ASSERT_NE(session, nullptr);
+  ASSERT_TRUE(session->Probe().ok());
+  ctl.SetScript([&](const Command& c) {
+    auto out = ctl.Default(c);
+    out.push_back(0x77);  // line noise, not a second reply
+    return out;
+  });
+  auto r = session->Transact(QueryPosition(5), In(milliseconds(300)));
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ((*r)->values[1], 5000);
+  EXPECT_EQ(session->counters().garbage, 1u);
+  EXPECT_EQ(session->counters().duplicate_replies, 0u);
+}
+
+TEST(SessionTest, Transact_HardwareReset_OfflineUntilBootThenResetReported) {
+  ScriptedController ctl(ReplyFraming::kR8);
+  auto o = FastOptions();
+  o.reset_boot_time = milliseconds(30);
+  auto session = OpenSession(ctl, o);
+  ASSERT_NE(session, nullptr);
+  RecordingObserver obs;
+  session->AddObserver(&obs);
+  ASSERT_TRUE(session->Probe().ok());
+  std::atomic<bool> was_reset{false};
+  ctl.SetScript([&](const Command& c) {
+    if (c.opcode == Opcode::kHardwareReset) {
+      was_reset = true;
+      return std::vector<uint8_t>{};
+    }
+    auto out = ctl.Default(c);
+    if (c.opcode == Opcode::kUnitInformation && was_reset.exchange(false)) {
+      Reply r;
+      r.opcode = Opcode::kUnitInformation;
+      r.values = {148, 1, 25, 4711, 0, 0, 0};
+      out = ReplyBytes(r, ReplyFraming::kR8);
+      out.insert(out.begin(), 0x00);  // L902
+    }
+    return out;
+  });
+  Command reset;
+  reset.address = 1;
+  reset.opcode = Opcode::kHardwareReset;
+  auto sent = session->Transact(reset, In(milliseconds(100)));
+  ASSERT_TRUE(sent.ok()) << sent.status();
+  EXPECT_EQ(session->link_state(), LinkState::kOffline);
+  const Deadline give_up = In(milliseconds(3000));
+  absl::StatusOr<std::optional<Reply>> r = absl::UnknownError("");
+  while (SessionClock::now() < give_up) {
+    r = session->Transact(QueryPosition(1), In(milliseconds(300)));
+    if (r.ok()) break;
+    std::this_thread::sleep_for(milliseconds(5));  // polling pace of a drive
+  }
+  ASSERT_TRUE(r.ok()) << r.status();
+  std::lock_guard<std::mutex> l(obs.mu);
+  EXPECT_EQ(obs.resets, std::vector<uint8_t>{1});
+}
+
+TEST(SessionTest, Transact_Rs485HalfDuplex_TurnaroundRespected) {
+  ScriptedController ctl(ReplyFraming::kR9);
+  transport::SerialConfig config;
+  config.device = ctl.path();
+  config.baud = 19200;
+  config.duplex = transport::SerialConfig::Duplex::kHalfRs485;
+  config.turnaround = std::chrono::microseconds(2000);
+  auto session = ControllerSession::OpenSerial(config, FastOptions());
+  ASSERT_TRUE(session.ok()) << session.status();
+  const auto start = SessionClock::now();
+  for (int i = 0; i < 3; ++i) {
+    auto r = (*session)->Transact(QueryPosition(1), In(milliseconds(500)));
+    ASSERT_TRUE(r.ok()) << r.status();
+  }
+  // 4 words (probe + 3), each Write returns no earlier than the turnaround after its last byte.
+  EXPECT_GE(SessionClock::now() - start, std::chrono::microseconds(4 * 2000));
+}
+
 TEST(SessionTest, Transact_OtherAddress_InvalidArgument) {
   ScriptedController ctl(ReplyFraming::kR8);
   auto session = OpenSession(ctl);
