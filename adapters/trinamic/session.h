@@ -1,6 +1,6 @@
 // Trinamic controller session: the serialised request/reply layer of one PACK over serial or CAN.
 // Reference: shared/protocols/trinamic-sixpack.md §2.3-2.6 (serial), §3.1/§3.4 (CAN), §4.2 $43;
-// decisions docs/decisions/1051-1058.
+// decisions docs/decisions/1051-1056.
 #pragma once
 
 #include <chrono>
