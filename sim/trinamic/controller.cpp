@@ -236,13 +236,13 @@ void Controller::Execute(const Command& c) {
       }
       break;
     case Opcode::kActivatePi:  // L703-709: immediate, clears the integral (§5.6)
-      interp_master_[m] = -1;
+      ReleaseInterpolation(m);
       s.target = static_cast<int32_t>(v[1]);
       s.pi_integral = 0;
       s.action = Action::kPi;
       break;
     case Opcode::kStartRotation:  // L711-718: immediate even when active
-      interp_master_[m] = -1;
+      ReleaseInterpolation(m);
       s.rotation_velocity = to_int(v[1]);
       s.action = Action::kRotation;
       break;
@@ -272,7 +272,7 @@ void Controller::Execute(const Command& c) {
           interp_master_[i] = -1;
           continue;
         }
-        interp_master_[i] = -1;
+        ReleaseInterpolation(i);
         si.target = si.position;
         si.decelerating = false;
         si.action = Action::kRamp;
@@ -530,8 +530,7 @@ void Controller::TickMotor(int m) {
                            static_cast<double>(interp_delta_[m]);
           const int64_t p = interp_start_[i] + std::llround(interp_delta_[i] * f);
           MoveCounter(i, p - si.position);
-          si.v64 = static_cast<int32_t>(std::llround(s.v64 * std::fabs(f == 0 ? 0 : 1) *
-                                                     static_cast<double>(interp_delta_[i]) /
+          si.v64 = static_cast<int32_t>(std::llround(s.v64 * static_cast<double>(interp_delta_[i]) /
                                                      static_cast<double>(interp_delta_[m])));
           if (s.action == Action::kInactive) {
             si.action = Action::kInactive;
@@ -579,10 +578,23 @@ void Controller::TickMotor(int m) {
   CheckStopConditions(m);
 }
 
+void Controller::ReleaseInterpolation(int m) {
+  // A master leaving `$50` releases its slaves where they are (decision 1035).
+  if (interp_master_[m] == m) {
+    for (int i = 0; i < options_.axes; ++i) {
+      if (i == m || interp_master_[i] != m) continue;
+      interp_master_[i] = -1;
+      state_[i].action = Action::kInactive;
+      state_[i].v64 = 0;
+    }
+  }
+  interp_master_[m] = -1;
+}
+
 void Controller::StartReferenceSearch(int m) {
   // L680: first stop; remember the operation to resume afterwards (L680, L616).
   MotorState& s = state_[m];
-  interp_master_[m] = -1;
+  ReleaseInterpolation(m);
   RefSearch& ref = ref_[m];
   if (s.action < Action::kRefStop) {
     ref.previous = s.action;
@@ -727,7 +739,7 @@ void Controller::StopCondition(int m) {
   MotorState& s = state_[m];
   const MotorRegisters& r = regs_[m];
   s.stop_flag = true;  // L576, L581, L663
-  interp_master_[m] = -1;
+  ReleaseInterpolation(m);
   const bool soft = Flag(m, mt::kStopSoft);
   if (!soft) {
     // Abrupt stop: above vstart the rotor loses round(K × v × 0.004) steps (§5.8 [P]).

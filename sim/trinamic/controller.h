@@ -174,6 +174,7 @@ class Controller {
   void StepAtVelocity(int m, int v64, bool vmin_div);
   int64_t Steps(int m, int64_t v64, bool vmin_div);
   int64_t BrakeDistance(int m, int64_t v, int amax) const;
+  void ReleaseInterpolation(int m);
   void StartReferenceSearch(int m);
   void ReferenceTick(int m);
   void CheckStopConditions(int m);

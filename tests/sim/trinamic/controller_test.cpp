@@ -390,6 +390,20 @@ TEST(ControllerInterpolation, MovingMaskedMotor_Ignored) {
   EXPECT_EQ(c.state(1).action, Action::kInactive);
 }
 
+TEST(ControllerInterpolation, StopMaster_ReleasesSlavesWhereTheyAre) {
+  Controller c = Make();
+  c.Handle(Cmd(Opcode::kSetTarget, {0, 10000}));
+  c.Handle(Cmd(Opcode::kSetTarget, {1, 20000}));
+  c.Handle(Cmd(Opcode::kInterpolate, {0x03}));
+  c.Advance(Ticks(100));
+  c.Handle(Cmd(Opcode::kStopMotors, {0x02}));  // motor 1 is the master
+  EXPECT_EQ(c.state(0).action, Action::kInactive);
+  const int32_t slave = c.state(0).position;
+  RunUntilIdle(c, 1);
+  EXPECT_EQ(c.state(0).position, slave);
+  EXPECT_EQ(c.state(0).action, Action::kInactive);
+}
+
 // ---- Reference search (§5.7) ----
 
 Controller RefController(uint16_t motor_type, int32_t nulloffset, bool stop_after) {
