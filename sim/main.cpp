@@ -23,6 +23,7 @@
 #include "adapters/linmot/mc/motion_command.h"
 #include "adapters/transport/endpoint.h"
 #include "sim/linmot/server.h"
+#include "sim/trinamic/server.h"
 #include "sim/linmot_devicenet/cli.h"
 #include "sim/linmot_devicenet/server.h"
 
@@ -36,6 +37,7 @@ constexpr int kUsageError = 2;
 
 constexpr const char* kUsage = R"(usage: drivegw-sim linmot [flags]
        drivegw-sim linmot-devicenet [flags]   (drivegw-sim linmot-devicenet --help)
+       drivegw-sim trinamic --pty PATH [--address N] [--axes 6|4] [--framing r8|r9]
 
 Simulated LinMot drive(s) speaking LinUDP V2 on real UDP sockets (linmot-linudp.md, linmot-mc.md).
 
@@ -319,10 +321,61 @@ int RunLinMotDeviceNet(int argc, char** argv) {
   return 0;
 }
 
+// `drivegw-sim trinamic --pty PATH [--address N] [--axes 6|4] [--framing r8|r9]`: one SIXpack/QUADpack
+// on a pseudo-terminal whose slave is symlinked at PATH (issue 4; the CAN server is still to do).
+int RunTrinamic(int argc, char** argv) {
+  namespace tsim = drivegw::sim::trinamic;
+  tsim::ServerOptions o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "trinamic") continue;
+    if (arg == "--help" || arg == "-h") {
+      std::cout << "usage: drivegw-sim trinamic --pty PATH [--address 1..255] [--axes 6|4] [--framing r8|r9]\n";
+      return 0;
+    }
+    if (i + 1 >= argc) UsageError(absl::StrCat(arg, ": missing value"));
+    const std::string value = argv[++i];
+    if (arg == "--pty") {
+      o.pty_path = value;
+    } else if (arg == "--address") {
+      o.controller.address = static_cast<uint8_t>(ParseInt(arg, value, 1, 255));
+    } else if (arg == "--framing") {
+      if (value == "r8") {
+        o.controller.framing = drivegw::trinamic::ReplyFraming::kR8;
+      } else if (value == "r9") {
+        o.controller.framing = drivegw::trinamic::ReplyFraming::kR9;
+      } else {
+        UsageError(absl::StrCat("--framing: '", value, "' is not r8 or r9"));
+      }
+    } else if (arg == "--axes") {
+      o.controller.axes = static_cast<int>(ParseInt(arg, value, 4, 6));
+      if (o.controller.axes == 5) UsageError("--axes: 5 is not 6 (SIXpack) or 4 (QUADpack)");
+    } else {
+      UsageError(absl::StrCat("unknown flag '", arg, "'"));
+    }
+  }
+  if (o.pty_path.empty()) UsageError("--pty: missing (the path where the pty's symlink goes)");
+  if (auto s = tsim::ValidateOptions(o); !s.ok()) UsageError(std::string(s.message()));
+  const sigset_t signals = BlockSignals();
+  auto server = tsim::TrinamicServer::Start(o, SteadyClock::Instance());
+  if (!server.ok()) {
+    std::cerr << "drivegw-sim: " << server.status().message() << "\n";
+    return 1;
+  }
+  std::cout << absl::StrFormat("trinamic address %d (%d axes) on %s -> %s\n", o.controller.address,
+                               o.controller.axes, o.pty_path, (*server)->slave_path());
+  std::cout.flush();
+  WaitForSignal(signals, 0, [] {});
+  (*server)->Stop();
+  std::cout << "drivegw-sim: stopped\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   if (FindFamily(argc, argv) == "linmot-devicenet") return RunLinMotDeviceNet(argc, argv);
+  if (FindFamily(argc, argv) == "trinamic") return RunTrinamic(argc, argv);
   const Flags flags = ParseFlags(argc, argv);
   if (auto s = drivegw::sim::linmot::ValidateOptions(flags.sim); !s.ok()) {
     UsageError(FlagMessage(std::string(s.message())));
