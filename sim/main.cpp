@@ -23,6 +23,7 @@
 #include "adapters/linmot/mc/motion_command.h"
 #include "adapters/transport/endpoint.h"
 #include "sim/linmot/server.h"
+#include "sim/trinamic/can_server.h"
 #include "sim/trinamic/server.h"
 #include "sim/linmot_devicenet/cli.h"
 #include "sim/linmot_devicenet/server.h"
@@ -326,17 +327,23 @@ int RunLinMotDeviceNet(int argc, char** argv) {
 int RunTrinamic(int argc, char** argv) {
   namespace tsim = drivegw::sim::trinamic;
   tsim::ServerOptions o;
+  std::optional<drivegw::CanBusConfig> can;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "trinamic") continue;
     if (arg == "--help" || arg == "-h") {
-      std::cout << "usage: drivegw-sim trinamic --pty PATH [--address 1..255] [--axes 6|4] [--framing r8|r9]\n";
+      std::cout << "usage: drivegw-sim trinamic --pty PATH | --can udp:GROUP:PORT|socketcan:IFACE "
+                   "[--address 1..255] [--axes 6|4] [--framing r8|r9]\n";
       return 0;
     }
     if (i + 1 >= argc) UsageError(absl::StrCat(arg, ": missing value"));
     const std::string value = argv[++i];
     if (arg == "--pty") {
       o.pty_path = value;
+    } else if (arg == "--can") {
+      auto parsed = drivegw::transport::ParseCanSpec(value);
+      if (!parsed.ok()) UsageError(std::string(parsed.status().message()));
+      can = *std::move(parsed);
     } else if (arg == "--address") {
       o.controller.address = static_cast<uint8_t>(ParseInt(arg, value, 1, 255));
     } else if (arg == "--framing") {
@@ -354,9 +361,31 @@ int RunTrinamic(int argc, char** argv) {
       UsageError(absl::StrCat("unknown flag '", arg, "'"));
     }
   }
-  if (o.pty_path.empty()) UsageError("--pty: missing (the path where the pty's symlink goes)");
+  if (!o.pty_path.empty() && can) UsageError("--can: give either --pty or --can, not both");
+  if (o.pty_path.empty() && !can) {
+    UsageError("--pty: missing (the path where the pty's symlink goes, or --can SPEC)");
+  }
   if (auto s = tsim::ValidateOptions(o); !s.ok()) UsageError(std::string(s.message()));
   const sigset_t signals = BlockSignals();
+  if (can) {
+    tsim::CanServerOptions co;
+    co.controller = o.controller;
+    co.can = *can;
+    co.faults = o.faults;
+    auto server = tsim::TrinamicCanServer::Start(co, SteadyClock::Instance());
+    if (!server.ok()) {
+      std::cerr << "drivegw-sim: " << server.status().message() << "\n";
+      return 1;
+    }
+    std::cout << absl::StrFormat("trinamic address %d (%d axes) on %s (command id 0x%03X)\n",
+                                 o.controller.address, o.controller.axes, (*server)->bus_name(),
+                                 (*server)->command_id());
+    std::cout.flush();
+    WaitForSignal(signals, 0, [] {});
+    (*server)->Stop();
+    std::cout << "drivegw-sim: stopped\n";
+    return 0;
+  }
   auto server = tsim::TrinamicServer::Start(o, SteadyClock::Instance());
   if (!server.ok()) {
     std::cerr << "drivegw-sim: " << server.status().message() << "\n";
