@@ -167,8 +167,11 @@ std::optional<std::vector<uint8_t>> Controller::Handle(const Command& c) {
 void Controller::Execute(const Command& c) {
   const auto& v = c.values;
   const int m = static_cast<int>(v[0]);
-  MotorRegisters& r = regs_[m];
-  MotorState& s = state_[m];
+  // P1 is a motor number for most opcodes but a motor mask (up to 63) for a few ($28, $29, $2A);
+  // bind the per-motor references only to a valid index — the mask opcodes never use them.
+  const size_t idx = m >= 0 && static_cast<size_t>(m) < regs_.size() ? static_cast<size_t>(m) : 0;
+  MotorRegisters& r = regs_[idx];
+  MotorState& s = state_[idx];
   auto to_int = [](int64_t x) { return static_cast<int>(x); };
   switch (c.opcode) {
     case Opcode::kPeakCurrent:  // L507: per pair, only motnr 0/2/4 effective

@@ -70,7 +70,7 @@ class StackTest : public ::testing::Test {
     ASSERT_EQ(stack_->network(), NetworkState::kOnline);
   }
   // TC-01: explicit + poll allocated by master 0, poll EPR 100 ms.
-  void Setup(const DnSimOptions& options = testing::F1Options()) {
+  void StartStack(const DnSimOptions& options = testing::F1Options()) {
     Online(options);
     ASSERT_THAT(Send("42E#00.4B.03.01.03.00"), ElementsAre("42B#00.CB.00"));
     ASSERT_THAT(Send("42C#00.10.05.02.09.64.00"), ElementsAre("42B#00.90.64.00"));
@@ -177,7 +177,7 @@ TEST_F(StackTest, AllocationAndPollSetup_Tc01) {
 
 // TC-02.
 TEST_F(StackTest, SecondMaster_RejectedUntilRelease_Tc02) {
-  Setup();
+  StartStack();
   EXPECT_THAT(Send("42E#01.4B.03.01.01.01"), ElementsAre("42B#01.94.0C.01"));
   EXPECT_THAT(Send("42D#00.00.00.00.00.00"), ElementsAre("3C5#03.10.00.00.02.00.03.10"));
   EXPECT_THAT(Send("42C#01.0E.01.01.01"), IsEmpty()) << "explicit requests of a non-owner";
@@ -203,13 +203,13 @@ TEST_F(StackTest, AllocateErrors_D14) {
 }
 
 TEST_F(StackTest, ExplicitRequest_XidEchoed) {
-  Setup();
+  StartStack();
   EXPECT_THAT(Send("42C#40.0E.05.02.01"), ElementsAre("42B#40.8E.03"));
 }
 
 // TC-03 (D-13: connection attributes readable).
 TEST_F(StackTest, GetAttributeSingle_ConnectionIdentityAndUnsupportedObjects_Tc03) {
-  Setup();
+  StartStack();
   EXPECT_THAT(Send("42C#00.0E.05.02.07"), ElementsAre("42B#00.8E.08.00"));
   EXPECT_THAT(Send("42C#00.0E.05.02.08"), ElementsAre("42B#00.8E.06.00"));
   EXPECT_THAT(Send("42C#00.0E.05.02.01"), ElementsAre("42B#00.8E.03"));
@@ -246,21 +246,21 @@ TEST_F(StackTest, ConnectionAttributesNotReadable_ErrorResponse_D13) {
   DnSimOptions o = testing::F1Options();
   o.connection_attributes_readable = false;
   o.identity_readable = false;
-  Setup(o);
+  StartStack(o);
   EXPECT_THAT(Send("42C#00.0E.05.02.07"), ElementsAre("42B#00.94.08.FF"));
   EXPECT_THAT(Send("42C#00.0E.01.01.01"), ElementsAre("42B#00.94.08.FF"));
 }
 
 // §5.6 life cycle 5: the third-party trace granted 0x0E10 for 0x0E0A.
 TEST_F(StackTest, SetExpectedPacketRate_RoundedUpToResolution_D13) {
-  Setup();
+  StartStack();
   EXPECT_THAT(Send("42C#00.10.05.02.09.0A.0E"), ElementsAre("42B#00.90.10.0E"));
   EXPECT_THAT(Send("42C#00.10.05.01.09.C4.09"), ElementsAre("42B#00.90.C4.09"));
   EXPECT_THAT(Send("42C#00.10.05.02.09.64"), ElementsAre("42B#00.94.13.FF"));
 }
 
 TEST_F(StackTest, PollWatchdog_TimesOutAfterFourEpr_ReestablishedByNewEpr) {
-  Setup();
+  StartStack();
   EXPECT_THAT(Send("42D#00.00.00.00.00.00"), ::testing::SizeIs(1));
   Advance(milliseconds(399));
   EXPECT_EQ(stack_->Snapshot().poll_connection.state, ConnectionState::kEstablished);
@@ -276,14 +276,14 @@ TEST_F(StackTest, PollWatchdog_TimesOutAfterFourEpr_ReestablishedByNewEpr) {
 }
 
 TEST_F(StackTest, PollWatchdog_ResetServiceReestablishes) {
-  Setup();
+  StartStack();
   Advance(milliseconds(500));
   EXPECT_THAT(Send("42C#00.05.05.02"), ElementsAre("42B#00.85"));
   EXPECT_THAT(Send("42D#00.00.00.00.00.00"), ::testing::SizeIs(1));
 }
 
 TEST_F(StackTest, PollWatchdog_AutoDeleteAction_ReleasesThePollConnection) {
-  Setup();
+  StartStack();
   EXPECT_THAT(Send("42C#00.10.05.02.0C.01"), ElementsAre("42B#00.90"));
   Advance(milliseconds(400));
   EXPECT_EQ(stack_->allocation_choice(), dn::kAllocExplicit);
@@ -291,7 +291,7 @@ TEST_F(StackTest, PollWatchdog_AutoDeleteAction_ReleasesThePollConnection) {
 }
 
 TEST_F(StackTest, EprZero_WatchdogOff) {
-  Setup();
+  StartStack();
   Send("42C#00.10.05.02.09.00.00");
   Send("42C#00.10.05.01.09.00.00");
   Advance(milliseconds(60'000));
@@ -300,7 +300,7 @@ TEST_F(StackTest, EprZero_WatchdogOff) {
 }
 
 TEST_F(StackTest, ExplicitWatchdog_DeletesExplicit_OwnershipKeptWhilePollLives_D13) {
-  Setup();
+  StartStack();
   for (int i = 0; i < 100; ++i) {
     Advance(milliseconds(100));
     Send("42D#00.00.00.00.00.00");  // keeps the poll connection alive
@@ -314,7 +314,7 @@ TEST_F(StackTest, ExplicitWatchdog_DeletesExplicit_OwnershipKeptWhilePollLives_D
 TEST_F(StackTest, ExplicitWatchdog_OwnershipEndsWithExplicit_D13Alternative) {
   DnSimOptions o = testing::F1Options();
   o.ownership_ends_with_explicit = true;
-  Setup(o);
+  StartStack(o);
   Advance(milliseconds(10'000));
   EXPECT_EQ(stack_->owner(), std::nullopt);
   EXPECT_THAT(Send("42E#01.4B.03.01.03.01"), ElementsAre("42B#01.CB.00"));
@@ -322,7 +322,7 @@ TEST_F(StackTest, ExplicitWatchdog_OwnershipEndsWithExplicit_D13Alternative) {
 
 // TC-04 (D-24).
 TEST_F(StackTest, PollOfWrongSize_NoAnswerCounted_Tc04) {
-  Setup();
+  StartStack();
   EXPECT_THAT(Send("42D#00.00.00.00"), IsEmpty());
   EXPECT_EQ(stack_->counters().polls_wrong_size, 1u);
   EXPECT_TRUE(app_.consumed.empty());
@@ -330,7 +330,7 @@ TEST_F(StackTest, PollOfWrongSize_NoAnswerCounted_Tc04) {
 
 // TC-46.
 TEST_F(StackTest, Example1_FragmentedBothWays_MissingMiddleDiscarded_Tc46) {
-  Setup(testing::F3Options());
+  StartStack(testing::F3Options());
   app_.poll_image.assign(24, 0);
   for (size_t i = 0; i < 24; ++i) app_.poll_image[i] = static_cast<uint8_t>(0xA0 + i);
   EXPECT_THAT(Send("42D#00.02.00.18.20.00.00.01"), IsEmpty());
@@ -351,7 +351,7 @@ TEST_F(StackTest, Example1_FragmentedBothWays_MissingMiddleDiscarded_Tc46) {
 
 // TC-44: 10 bytes in two fragments, 8 bytes back unfragmented.
 TEST_F(StackTest, Example2_FragmentedPollUnfragmentedResponse_Tc44) {
-  Setup(testing::F2Options());
+  StartStack(testing::F2Options());
   EXPECT_THAT(Send("42D#00.02.00.11.00.00.14.11"), IsEmpty());
   EXPECT_THAT(Send("42D#81.00.00.EC"), ElementsAre("3C5#03.10.00.00.02.00.03.10"));
   ASSERT_EQ(app_.consumed.size(), 1u);
@@ -359,7 +359,7 @@ TEST_F(StackTest, Example2_FragmentedPollUnfragmentedResponse_Tc44) {
 }
 
 TEST_F(StackTest, Faults_DropDelayCorruptLength) {
-  Setup();
+  StartStack();
   stack_->faults().drop_next_polls = 2;
   EXPECT_THAT(Send("42D#00.00.00.00.00.00"), IsEmpty());
   EXPECT_THAT(Send("42D#00.00.00.00.00.00"), IsEmpty());
@@ -441,7 +441,7 @@ TEST_F(StackTest, CosOnly_MasterDataAcknowledgedUnlessSuppressed) {
 
 // TC-11 at stack level (D-16 default: hold until the CAN controller is reset).
 TEST_F(StackTest, BusOff_SilentUntilRecovered_Tc11) {
-  Setup();
+  StartStack();
   stack_->GoBusOff(now_);
   EXPECT_THAT(app_.codes, ElementsAre(dn::kCodedCanBusOff));
   EXPECT_FALSE(app_.io_connected);
@@ -462,7 +462,7 @@ TEST_F(StackTest, BusOff_AutoRecoverAfterConfiguredTime_D16Option) {
   DnSimOptions o = testing::F1Options();
   o.bus_off_recovery = BusOffRecovery::kAutoRecover;
   o.bus_off_recover_after = milliseconds(500);
-  Setup(o);
+  StartStack(o);
   stack_->GoBusOff(now_);
   EXPECT_THAT(Advance(milliseconds(499)), IsEmpty());
   EXPECT_THAT(Advance(milliseconds(1)), ElementsAre(kDupRequest));
@@ -483,7 +483,7 @@ TEST_F(StackTest, LonelyNode_KeepsRetransmitting8143) {
 
 // TC-06.
 TEST_F(StackTest, ResetController_NoResponseThenDuplicateCheck_Tc06) {
-  Setup();
+  StartStack();
   app_.outcome = ConsumeOutcome::kResetController;
   EXPECT_THAT(Send("42D#02.00.0F.00.00.00"), ElementsAre(kDupRequest));
   EXPECT_EQ(stack_->network(), NetworkState::kDuplicateCheck);
@@ -496,13 +496,13 @@ TEST_F(StackTest, ResetController_NoResponseThenDuplicateCheck_Tc06) {
 }
 
 TEST_F(StackTest, IdentityReset_RespondsThenRestarts) {
-  Setup();
+  StartStack();
   EXPECT_THAT(Send("42C#00.05.01.01"), ElementsAre("42B#00.85", kDupRequest));
   EXPECT_EQ(app_.resets, 1);
 }
 
 TEST_F(StackTest, ReleaseOverExplicitConnection) {
-  Setup();
+  StartStack();
   EXPECT_THAT(Send("42C#00.4C.03.01.02"), ElementsAre("42B#00.CC"));
   EXPECT_THAT(Send("42D#00.00.00.00.00.00"), IsEmpty());
   EXPECT_THAT(Send("42C#00.4C.03.01.01"), ElementsAre("42B#00.CC"));
@@ -531,7 +531,7 @@ TEST_F(StackTest, UcmmOpenAndClose_D11) {
 }
 
 TEST_F(StackTest, FragmentedExplicitResponse_SentFragmentByFragmentAfterAcks) {
-  Setup();
+  StartStack();
   const auto first = Send("42C#00.0E.01.01.07");  // product name: 16 bytes
   ASSERT_EQ(first.size(), 1u);
   dn::Reassembler r;
@@ -555,7 +555,7 @@ TEST_F(StackTest, FragmentedExplicitResponse_SentFragmentByFragmentAfterAcks) {
 }
 
 TEST_F(StackTest, FragmentedExplicitRequest_AckedAndAnswered) {
-  Setup();
+  StartStack();
   auto fragmenter = dn::Fragmenter::ForExplicit(Bytes("00.10.05.02.09.64.00.00.00.00")).value();
   auto f1 = fragmenter.Next().value();
   EXPECT_THAT(Texts(stack_->HandleFrame(dn::MakeFrame(0x42C, f1).value(), now_)),
@@ -567,7 +567,7 @@ TEST_F(StackTest, FragmentedExplicitRequest_AckedAndAnswered) {
 }
 
 TEST_F(StackTest, Malformed_CountedAndDropped) {
-  Setup();
+  StartStack();
   EXPECT_THAT(Send("7F5#00"), IsEmpty());
   EXPECT_THAT(Send("42C#00.0E.05"), ElementsAre("42B#00.94.13.FF"));
   EXPECT_THAT(Send("42F#00.01"), IsEmpty());
