@@ -1268,17 +1268,12 @@ std::optional<Motor> MotorFor(const CommandSpec& spec, Motor motor) {
   return spec.motor_select == MotorSelect::kRequired ? std::optional<Motor>(motor) : std::nullopt;
 }
 
-}  // namespace
-
-absl::StatusOr<int64_t> LinMotDnDrive::ReadParameter(const ParameterRef& ref) {
-  DGW_RETURN_IF_ERROR(RequireActive("ReadParameter"));
-  const std::string where = absl::StrFormat("drive '%s': parameter 0x%02X", name_, ref.id);
-  if (ref.rom) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(where,
-                     ".rom: LinMot DeviceNet has no stored values, only live ones "
-                     "(linmot-devicenet.md §8.8, D-29)"));
-  }
+// The command behind a parameter id, after the checks Read and Write share: no stored (ROM)
+// values in this generation (`rom_reason` says why for the operation), ids 0x00-0x7F, and a
+// command that §8.4 defines.
+absl::StatusOr<const CommandSpec*> ParameterCommand(const ParameterRef& ref, const std::string& where,
+                                                    const char* rom_reason) {
+  if (ref.rom) return absl::InvalidArgumentError(absl::StrCat(where, ".rom: ", rom_reason));
   if (ref.id > 0x7F) {
     return absl::InvalidArgumentError(
         absl::StrCat(where, ": exceeds the command ID range 0x00-0x7F (linmot-devicenet.md §8.4)"));
@@ -1288,6 +1283,18 @@ absl::StatusOr<int64_t> LinMotDnDrive::ReadParameter(const ParameterRef& ref) {
     return absl::NotFoundError(
         absl::StrCat(where, ": not a command of linmot-devicenet.md §8.4 (§8.7)"));
   }
+  return spec;
+}
+
+}  // namespace
+
+absl::StatusOr<int64_t> LinMotDnDrive::ReadParameter(const ParameterRef& ref) {
+  DGW_RETURN_IF_ERROR(RequireActive("ReadParameter"));
+  const std::string where = absl::StrFormat("drive '%s': parameter 0x%02X", name_, ref.id);
+  DGW_ASSIGN_OR_RETURN(const CommandSpec* spec,
+                       ParameterCommand(ref, where,
+                                        "LinMot DeviceNet has no stored values, only live ones "
+                                        "(linmot-devicenet.md §8.8, D-29)"));
   const CommandSpec* get = spec;
   if (spec->kind == CommandKind::kSet && ref.id > 0) {
     const CommandSpec* pair = FindCommand(static_cast<uint8_t>(ref.id - 1));
@@ -1307,21 +1314,10 @@ absl::StatusOr<int64_t> LinMotDnDrive::ReadParameter(const ParameterRef& ref) {
 absl::Status LinMotDnDrive::WriteParameter(const ParameterRef& ref, int64_t value) {
   DGW_RETURN_IF_ERROR(RequireActive("WriteParameter"));
   const std::string where = absl::StrFormat("drive '%s': parameter 0x%02X", name_, ref.id);
-  if (ref.rom) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(where,
-                     ".rom: LinMot DeviceNet has no stored values; Set commands are volatile "
-                     "(linmot-devicenet.md §8.8, D-29)"));
-  }
-  if (ref.id > 0x7F) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(where, ": exceeds the command ID range 0x00-0x7F (linmot-devicenet.md §8.4)"));
-  }
-  const CommandSpec* spec = FindCommand(static_cast<uint8_t>(ref.id));
-  if (spec == nullptr) {
-    return absl::NotFoundError(
-        absl::StrCat(where, ": not a command of linmot-devicenet.md §8.4 (§8.7)"));
-  }
+  DGW_ASSIGN_OR_RETURN(const CommandSpec* spec,
+                       ParameterCommand(ref, where,
+                                        "LinMot DeviceNet has no stored values; Set commands are "
+                                        "volatile (linmot-devicenet.md §8.8, D-29)"));
   const CommandSpec* set = spec->kind == CommandKind::kSet ? spec : FindCommand(ref.id + 1);
   if (set == nullptr || set->kind != CommandKind::kSet || !IsWritableParameter(set->id)) {
     return absl::InvalidArgumentError(absl::StrCat(
