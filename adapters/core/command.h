@@ -2,6 +2,7 @@
 // degrees for rotary axes), plus the expert pass-through requests.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <variant>
@@ -59,7 +60,20 @@ struct LinMotDnRequest {
   uint16_t command = 0;  // word 1: motor select (15..12), T (7), command ID (6..0)
   int32_t value = 0;     // word 2: -32768..65535 (signed or unsigned per command)
 };
-using NativeRequest = std::variant<LinMotMcRequest, LinMotRtcRequest, LinMotDnRequest>;
+// Trinamic SIXpack/QUADpack instruction (trinamic-sixpack.md §4.1) to the drive's controller: the
+// opcode and the seven parameter bytes P0..P6 as on the wire. The gateway fills in the controller
+// address and, for queries, its own response address; service opcodes $F2..$F7 are refused.
+struct TrinamicRequest {
+  uint8_t opcode = 0;
+  std::array<uint8_t, 7> params{};
+};
+// Trinamic RS-232-over-CAN tunnel (§3.5, L307-317): bytes sent out of the controller's RS-232 port
+// (CAN identifier (A << 3) + 1). CAN transport only; 1..8 bytes.
+struct TrinamicTunnelRequest {
+  std::vector<uint8_t> data;
+};
+using NativeRequest = std::variant<LinMotMcRequest, LinMotRtcRequest, LinMotDnRequest,
+                                   TrinamicRequest, TrinamicTunnelRequest>;
 
 struct NativeReply {
   uint64_t command_id = 0;  // command handle for motion commands, 0 otherwise
@@ -67,6 +81,18 @@ struct NativeReply {
   uint16_t word2 = 0;
   uint16_t word3 = 0;
   uint16_t word4 = 0;
+  // Raw reply body where the family has one (Trinamic: CMD P0..P6, 8 bytes; empty when the
+  // instruction has no reply, §2.4).
+  std::vector<uint8_t> data;
+};
+
+// Linear interpolated move of several axes of one controller (Trinamic `$26` targets + `$50`,
+// trinamic-sixpack.md §4.2 `$50`, §5.5): all axes start in the same cycle and arrive together.
+// Velocity and acceleration limit the axis with the longest path; the others scale down.
+struct CoordinatedMove {
+  std::vector<double> positions_mm;  // one target per drive of the group, in group order
+  double velocity_mm_s = 0;
+  double acceleration_mm_s2 = 0;
 };
 
 inline std::string KindName(const MotionCommand& cmd) {

@@ -6,11 +6,13 @@
 #include <chrono>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
 #include "adapters/core/clock.h"
 #include "adapters/core/command.h"
 #include "adapters/core/drive_config.h"
@@ -97,6 +99,17 @@ class Drive {
   virtual absl::StatusOr<CommandInfo> Home() = 0;
   virtual absl::StatusOr<CommandInfo> Move(const MotionCommand& cmd) = 0;
   virtual absl::StatusOr<CommandInfo> AcknowledgeFault() = 0;
+  // Coordinated move of `group`: this drive first, then its partners, all of this family and on
+  // the same controller (the family checks). Returns one handle per drive, in group order, once
+  // the controller accepted the move. Families without interpolation: Unimplemented.
+  virtual absl::StatusOr<std::vector<CommandInfo>> MoveCoordinated(const CoordinatedMove& move,
+                                                                   std::span<Drive* const> group) {
+    (void)move;
+    (void)group;
+    return absl::UnimplementedError(
+        absl::StrCat("drive '", config().name, "': family '", config().family,
+                     "' has no coordinated (interpolated) multi-axis move"));
+  }
 
   virtual absl::StatusOr<int64_t> ReadParameter(const ParameterRef& ref) = 0;
   virtual absl::Status WriteParameter(const ParameterRef& ref, int64_t value) = 0;

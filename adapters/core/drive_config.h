@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace drivegw {
 
@@ -41,6 +43,33 @@ struct CanBusConfig {
   std::string trace_file;              // candump -l log of every frame in and out; empty: off
 };
 
+// RS-232 / RS-485 line of a serial family (trinamic-sixpack.md §2.1; opened as
+// transport::SerialConfig, raw 8N1).
+struct SerialLineConfig {
+  std::string device;  // /dev/ttyUSB0, or a pty symlink (drivegw-sim trinamic --pty PATH)
+  int baud = 19200;    // the PACK's default (L273)
+  bool rs485 = false;  // half duplex: wait `turnaround` around every reply (§2.5)
+  std::chrono::microseconds turnaround{6000};  // the controller's switchover delay ($40, L833)
+};
+
+// One axis of a Trinamic SIXpack/QUADpack controller (trinamic-sixpack.md; docs/config.md
+// "trinamic"). Axes with the same transport and address share one serialised session.
+struct TrinamicConfig {
+  std::optional<SerialLineConfig> serial;  // exactly one of serial / can
+  std::optional<CanBusConfig> can;
+  uint8_t address = 1;               // controller unit address 1..255 (rotary switches, G-05)
+  uint8_t axis = 0;                  // motor number: 0..5 SIXpack, 0..3 QUADpack (G-17)
+  int axes = 6;                      // 6 = SIXpack, 4 = QUADpack
+  double microsteps_per_unit = 0;    // microsteps per mm (per degree on a rotary axis); > 0
+  uint8_t response_address = 0xF0;   // RA of every query (§2.4, decision 1052)
+  std::chrono::milliseconds poll_period{20};    // position/activity polling of this axis
+  std::chrono::milliseconds reply_timeout{100};  // one query
+  int offline_after_misses = 3;                  // consecutive misses -> OFFLINE (decision 1054)
+  // Values written at activation and re-sent after every detected controller reset (G-24):
+  // "$14.vmax" -> 300 (opcode and field names of the instruction table, codec.cpp).
+  std::vector<std::pair<std::string, int64_t>> parameters;
+};
+
 struct TimeoutConfig {
   std::chrono::milliseconds request{2000};  // Enable/Disable/Acknowledge/parameter access
   std::chrono::milliseconds accept{100};    // motion command acceptance (count echo), D-11
@@ -55,6 +84,7 @@ struct DriveConfig {
   std::optional<LinUdpConfig> linudp;
   std::optional<CanBusConfig> can;  // CAN families (linmot-devicenet, later trinamic, canopen)
   std::optional<uint8_t> mac_id;    // DeviceNet MAC ID 0..63
+  std::optional<TrinamicConfig> trinamic;
 };
 
 }  // namespace drivegw
