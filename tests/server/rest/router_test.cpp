@@ -63,7 +63,8 @@ class RouterTest : public ::testing::Test {
 TEST_F(RouterTest, Create_EveryAnnotatedMethod_OneRoute) {
   std::vector<std::string> routes;
   for (const auto& r : router_->routes()) routes.push_back(r.http_method + " " + r.path.text());
-  EXPECT_EQ(routes.size(), 15u);
+  EXPECT_EQ(routes.size(), 16u);
+  EXPECT_THAT(routes, Contains("POST /v1/drives:moveCoordinated"));
   EXPECT_THAT(routes, Contains("GET /v1/drives"));
   EXPECT_THAT(routes, Contains("GET /v1/drives:watch"));
   EXPECT_THAT(routes, Contains("POST /v1/{name=drives/*}:moveAbsolute"));
