@@ -33,9 +33,9 @@ enum class ParameterScope {
 
 // When the PACK accepts a write (L532, L539, L609; CT-56).
 enum class WriteRule {
-  kAnyTime,         // e.g. $14 amax/vmax are evaluated permanently (L552)
-  kAxisStopped,     // $13, $16: only while this motor stands still
-  kAllStopped,      // $12 clkdiv: only while every motor stands still
+  kAnyTime,      // e.g. $14 amax/vmax are evaluated permanently (L552)
+  kAxisStopped,  // $13, $16: only while this motor stands still
+  kAllStopped,   // $12 clkdiv: only while every motor stands still
 };
 
 struct ParameterDefinition {
@@ -48,8 +48,8 @@ struct ParameterDefinition {
   int64_t min = 0;
   int64_t max = 0;
   int64_t default_value = 0;  // §5.12; for `$15` motor type the G-33 factory value
-  std::string unit;            // "velocity register", "2 ms", "microsteps", "bits", ...
-  std::string description;     // one line, cites the manual line
+  std::string unit;           // "velocity register", "2 ms", "microsteps", "bits", ...
+  std::string description;    // one line, cites the manual line
 };
 
 // Every parameter the gateway writes and shadows, in opcode order. Excludes motion, query,
@@ -58,6 +58,11 @@ std::span<const ParameterDefinition> ParameterCatalogue();
 // By id or by name ("$14.vmax", case-insensitive hex); NotFound naming the id/name and a hint.
 absl::StatusOr<const ParameterDefinition*> FindParameter(uint32_t id);
 absl::StatusOr<const ParameterDefinition*> FindParameter(std::string_view name);
+
+// An advisory for a value that is valid but doubtful (G-08: vstart below 8, L363; G-09: a current
+// index 6 or 7 for I1..I3 is below the 19 % needed for proper microstepping, L329). Logging it is
+// the drive's job; nullopt when there is nothing to say. Does not range-check.
+std::optional<std::string> ParameterWarning(uint32_t id, int64_t value);
 
 // The values of one axis plus the controller-wide ones as the gateway believes the PACK holds
 // them. Starts at the §5.12 defaults (the PACK's state after reset). Value type: copy freely.
@@ -97,6 +102,9 @@ class ParameterShadow {
   int div() const;
 
  private:
+  // The full word of `opcode` from the shadow (motnr = axis, `$10` the even motor of the pair).
+  Command Word(uint8_t address, Opcode opcode) const;
+
   uint8_t axis_;
   int axes_;
   std::map<uint32_t, int64_t> values_;
