@@ -2,11 +2,13 @@
 #include "server/core/drive_service.h"
 
 #include <chrono>
+#include <span>
 #include <thread>
 
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "adapters/core/log.h"
 #include "google/protobuf/util/json_util.h"
@@ -155,6 +157,60 @@ absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveVelocity(const v1::MoveV
     return d.Move(*cmd);
   });
 }
+
+absl::StatusOr<v1::MoveCoordinatedResponse> DriveServiceCore::MoveCoordinated(
+    const v1::MoveCoordinatedRequest& r, const CallContext& c) {
+  // The audit names every drive, resolved where possible ("x1,x2").
+  std::vector<std::string> audit_names;
+  for (const auto& t : r.targets()) {
+    auto d = Find("name", t.name());
+    audit_names.push_back(d.ok() ? (*d)->config().name : t.name());
+  }
+  absl::StatusOr<v1::MoveCoordinatedResponse> out =
+      [&]() -> absl::StatusOr<v1::MoveCoordinatedResponse> {
+    if (auto s = ValidateCoordinatedTargetCount(r); !s.ok()) return s;
+    std::vector<Drive*> group;
+    std::vector<AxisConfig> axes;
+    for (int i = 0; i < r.targets_size(); ++i) {
+      const std::string field = absl::StrCat("move_coordinated.targets[", i, "].name");
+      auto d = Find(field, r.targets(i).name());
+      if (!d.ok()) return d.status();
+      const DriveConfig& cfg = (*d)->config();
+      for (size_t j = 0; j < group.size(); ++j) {
+        if (group[j] == *d) {
+          return FieldError(field, absl::StrCat(DriveResourceName(cfg.name), " is already targets[",
+                                                j, "]; each drive takes part once"));
+        }
+      }
+      // One controller implies one family; the family itself checks the controller.
+      if (!group.empty() && cfg.family != group[0]->config().family) {
+        return FieldError(
+            field, absl::StrCat(DriveResourceName(cfg.name), " is a ", cfg.family,
+                                " drive, targets[0] (", DriveResourceName(group[0]->config().name),
+                                ") a ", group[0]->config().family,
+                                " drive; a coordinated move runs on one controller"));
+      }
+      group.push_back(*d);
+      axes.push_back(cfg.axis);
+    }
+    auto move = ValidateMoveCoordinated(r, axes);
+    if (!move.ok()) return move.status();
+    auto infos = group[0]->MoveCoordinated(*move, std::span<Drive* const>(group));
+    if (!infos.ok()) return infos.status();
+    if (infos->size() != group.size()) {
+      return absl::InternalError(absl::StrCat("drive '", group[0]->config().name, "' returned ",
+                                              infos->size(), " command handles for a group of ",
+                                              group.size()));
+    }
+    v1::MoveCoordinatedResponse resp;
+    for (size_t i = 0; i < group.size(); ++i)
+      *resp.add_commands() = ToProto(group[i]->config().name, (*infos)[i]);
+    return resp;
+  }();
+  Audit(c, absl::StrJoin(audit_names, ","), "MoveCoordinated", r, out.status());
+  return out;
+}
+
 absl::StatusOr<v1::CommandHandle> DriveServiceCore::Stop(const v1::StopRequest& r, const CallContext& c) {
   return RunCommand("Stop", r, c, [&](Drive& d) -> absl::StatusOr<CommandInfo> {
     auto cmd = ValidateStop(r, d.config().axis);
@@ -222,6 +278,8 @@ absl::StatusOr<v1::NativeCommandResponse> DriveServiceCore::SendNativeCommand(co
     out = drive.status();
   } else if (auto fam = ValidateNativeFamily(r, (*drive)->config().family); !fam.ok()) {
     out = fam;
+  } else if (auto tr = ValidateNativeTransport(r, (*drive)->config()); !tr.ok()) {
+    out = tr;
   } else if (auto req = ValidateNative(r); !req.ok()) {
     out = req.status();
   } else if (auto reply = (*drive)->SendNative(*req); !reply.ok()) {
@@ -236,6 +294,7 @@ absl::StatusOr<v1::NativeCommandResponse> DriveServiceCore::SendNativeCommand(co
     resp.set_word2(reply->word2);
     resp.set_word3(reply->word3);
     resp.set_word4(reply->word4);
+    resp.set_reply(std::string(reply->data.begin(), reply->data.end()));
     out = resp;
   }
   Audit(c, drive_name, "SendNativeCommand", r, out.status());

@@ -39,6 +39,11 @@ class DriveServiceCore {
   absl::StatusOr<v1::CommandHandle> MoveAbsolute(const v1::MoveAbsoluteRequest& r, const CallContext& c);
   absl::StatusOr<v1::CommandHandle> MoveRelative(const v1::MoveRelativeRequest& r, const CallContext& c);
   absl::StatusOr<v1::CommandHandle> MoveVelocity(const v1::MoveVelocityRequest& r, const CallContext& c);
+  // Interpolated move of two or more drives of one controller: looks up every target (each drive
+  // once, one family), checks positions and dynamics against the axes, then hands the whole group
+  // to the first drive (Drive::MoveCoordinated). One audit entry naming every drive.
+  absl::StatusOr<v1::MoveCoordinatedResponse> MoveCoordinated(const v1::MoveCoordinatedRequest& r,
+                                                              const CallContext& c);
   absl::StatusOr<v1::CommandHandle> Stop(const v1::StopRequest& r, const CallContext& c);
   absl::StatusOr<v1::CommandHandle> AcknowledgeFault(const v1::AcknowledgeFaultRequest& r, const CallContext& c);
   absl::StatusOr<v1::CommandHandle> GetCommand(const v1::GetCommandRequest& r, const CallContext& c);

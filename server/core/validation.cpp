@@ -1,7 +1,9 @@
 // Validation of motion and expert requests against axis limits.
 #include "server/core/validation.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "absl/strings/str_cat.h"
 #include "server/core/errors.h"
@@ -52,6 +54,73 @@ absl::StatusOr<double> CheckDynamics(const std::string& req, double v, double a,
       !s.ok())
     return s;
   return d == 0 ? a : d;
+}
+
+// finite, > 0, and within the lowest `limit` of the group; the error names that target, so the
+// caller learns the bound that actually applies.
+absl::Status CheckGroupLimit(const v1::MoveCoordinatedRequest& r, const std::string& field,
+                             double v, const std::vector<AxisConfig>& axes,
+                             double AxisConfig::*limit, const char* limit_name) {
+  if (auto s = CheckMagnitude(field, v, std::numeric_limits<double>::infinity(), limit_name, false);
+      !s.ok())
+    return s;
+  size_t lowest = 0;
+  for (size_t i = 1; i < axes.size(); ++i) {
+    if (axes[i].*limit < axes[lowest].*limit) lowest = i;
+  }
+  if (v > axes[lowest].*limit) {
+    return FieldError(
+        field,
+        absl::StrCat(Num(v), " exceeds ", limit_name, " ", Num(axes[lowest].*limit), " of targets[",
+                     lowest, "] (", r.targets(static_cast<int>(lowest)).name(),
+                     "), the lowest of the group"),
+        absl::StatusCode::kOutOfRange);
+  }
+  return absl::OkStatus();
+}
+
+// "$F2": opcodes as the manual writes them.
+std::string OpcodeText(uint32_t opcode) {
+  constexpr char kHex[] = "0123456789ABCDEF";
+  return {'$', kHex[(opcode >> 4) & 0xF], kHex[opcode & 0xF]};
+}
+
+absl::StatusOr<NativeRequest> ValidateTrinamic(const v1::TrinamicCommand& c) {
+  if (c.opcode() > 0xFF)
+    return FieldError("trinamic.opcode", absl::StrCat(c.opcode(), " exceeds 255"));
+  // Service functions "are not intended for the user and when used improperly the unit can be
+  // damaged permanently" (trinamic-sixpack.md §4.1 gateway policy, L918).
+  if (c.opcode() >= 0xF2 && c.opcode() <= 0xF7) {
+    return FieldError(
+        "trinamic.opcode",
+        absl::StrCat(c.opcode(), " (", OpcodeText(c.opcode()),
+                     ") is a service function ($F2..$F7); the gateway never sends them "
+                     "(trinamic-sixpack.md §4.1, L918)"));
+  }
+  // All nine bytes of a word are always sent (§2.3, L375); the gateway adds only the address.
+  if (c.params().size() != 7) {
+    return FieldError("trinamic.params", absl::StrCat(c.params().size(),
+                                                      " bytes; exactly 7 are required (P0..P6, "
+                                                      "trinamic-sixpack.md §2.3)"));
+  }
+  TrinamicRequest out;
+  out.opcode = static_cast<uint8_t>(c.opcode());
+  std::copy(c.params().begin(), c.params().end(), out.params.begin());
+  return out;
+}
+
+absl::StatusOr<NativeRequest> ValidateTrinamicTunnel(const v1::TrinamicTunnel& t) {
+  // One CAN frame carries 1..8 data bytes out of the RS-232 port (trinamic-sixpack.md §3.5, L315).
+  if (t.data().empty()) {
+    return FieldError("trinamic_tunnel.data",
+                      "is empty; 1..8 bytes (one CAN frame, trinamic-sixpack.md §3.5)");
+  }
+  if (t.data().size() > 8) {
+    return FieldError("trinamic_tunnel.data", absl::StrCat(t.data().size(),
+                                                           " bytes exceed 8 (one CAN frame, "
+                                                           "trinamic-sixpack.md §3.5)"));
+  }
+  return TrinamicTunnelRequest{std::vector<uint8_t>(t.data().begin(), t.data().end())};
 }
 
 }  // namespace
@@ -136,10 +205,16 @@ absl::StatusOr<NativeRequest> ValidateNative(const v1::SendNativeCommandRequest&
       }
       return LinMotDnRequest{static_cast<uint16_t>(c.command()), c.value()};
     }
+    case v1::SendNativeCommandRequest::kTrinamic:
+      return ValidateTrinamic(r.trinamic());
+    case v1::SendNativeCommandRequest::kTrinamicTunnel:
+      return ValidateTrinamicTunnel(r.trinamic_tunnel());
     case v1::SendNativeCommandRequest::COMMAND_NOT_SET:
       break;
   }
-  return FieldError("command", "one of linmot_motion, linmot_rtc, linmot_devicenet is required");
+  return FieldError(
+      "command",
+      "one of linmot_motion, linmot_rtc, linmot_devicenet, trinamic, trinamic_tunnel is required");
 }
 
 absl::Status ValidateNativeFamily(const v1::SendNativeCommandRequest& r, const std::string& family) {
@@ -158,6 +233,14 @@ absl::Status ValidateNativeFamily(const v1::SendNativeCommandRequest& r, const s
       field = "linmot_devicenet";
       wanted = "linmot-devicenet";
       break;
+    case v1::SendNativeCommandRequest::kTrinamic:
+      field = "trinamic";
+      wanted = "trinamic";
+      break;
+    case v1::SendNativeCommandRequest::kTrinamicTunnel:
+      field = "trinamic_tunnel";
+      wanted = "trinamic";
+      break;
     case v1::SendNativeCommandRequest::COMMAND_NOT_SET:
       return absl::OkStatus();  // ValidateNative names the missing field
   }
@@ -167,13 +250,81 @@ absl::Status ValidateNativeFamily(const v1::SendNativeCommandRequest& r, const s
   return absl::OkStatus();
 }
 
-absl::Status ValidateParameterId(const char* request, const std::string& family, uint32_t parameter_id) {
-  // LinMot addresses parameters by 16-bit UPID (linmot-mc.md §9.1).
-  if (family.rfind("linmot", 0) == 0 && parameter_id > 0xFFFF) {
-    return FieldError(absl::StrCat(request, ".parameter_id"),
-                      absl::StrCat(parameter_id, " exceeds 65535 (LinMot UPIDs are 16 bit)"));
+absl::Status ValidateNativeTransport(const v1::SendNativeCommandRequest& r,
+                                     const DriveConfig& config) {
+  // The tunnel is the CAN identifier (A << 3) + 1 (trinamic-sixpack.md §3.5, L315); on a serial
+  // line the RS-232 port is the command port itself. A drive without a trinamic section (a test
+  // double) leaves the check to its family.
+  if (r.command_case() == v1::SendNativeCommandRequest::kTrinamicTunnel && config.trinamic &&
+      !config.trinamic->can) {
+    return FieldError("trinamic_tunnel",
+                      absl::StrCat("needs a drive on a CAN bus (trinamic-sixpack.md §3.5); drive '",
+                                   config.name, "' is on a serial line"),
+                      absl::StatusCode::kFailedPrecondition);
   }
   return absl::OkStatus();
+}
+
+absl::Status ValidateParameterId(const char* request, const std::string& family, uint32_t parameter_id) {
+  const std::string field = absl::StrCat(request, ".parameter_id");
+  // LinMot addresses parameters by 16-bit UPID (linmot-mc.md §9.1).
+  if (family.rfind("linmot", 0) == 0 && parameter_id > 0xFFFF) {
+    return FieldError(field,
+                      absl::StrCat(parameter_id, " exceeds 65535 (LinMot UPIDs are 16 bit)"));
+  }
+  // Trinamic: opcode << 8 | index of the field's first byte among P0..P6 (0x1403 = $14.vmax);
+  // whether a field starts there is the family's catalogue (adapters/trinamic/parameters.h).
+  if (family == "trinamic") {
+    if (parameter_id > 0xFFFF) {
+      return FieldError(
+          field,
+          absl::StrCat(parameter_id, " exceeds 65535 (Trinamic ids are opcode << 8 | P-index)"));
+    }
+    if ((parameter_id & 0xFF) > 6) {
+      return FieldError(field,
+                        absl::StrCat(parameter_id, ": P-index ", parameter_id & 0xFF,
+                                     " exceeds 6 (parameters P0..P6, trinamic-sixpack.md §2.3)"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateCoordinatedTargetCount(const v1::MoveCoordinatedRequest& r) {
+  if (r.targets_size() < 2) {
+    return FieldError(
+        "move_coordinated.targets",
+        absl::StrCat(r.targets_size(), " targets; a coordinated move needs at least 2 drives"));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<CoordinatedMove> ValidateMoveCoordinated(const v1::MoveCoordinatedRequest& r,
+                                                        const std::vector<AxisConfig>& axes) {
+  if (auto s = ValidateCoordinatedTargetCount(r); !s.ok()) return s;
+  if (axes.size() != static_cast<size_t>(r.targets_size())) {
+    return absl::InternalError(absl::StrCat("ValidateMoveCoordinated: ", axes.size(), " axes for ",
+                                            r.targets_size(), " targets"));
+  }
+  CoordinatedMove out;
+  for (int i = 0; i < r.targets_size(); ++i) {
+    const double p = r.targets(i).position_mm();
+    if (auto s = CheckPosition(absl::StrCat("move_coordinated.targets[", i, "].position_mm"), p,
+                               axes[i]);
+        !s.ok())
+      return s;
+    out.positions_mm.push_back(p);
+  }
+  if (auto s = CheckGroupLimit(r, "move_coordinated.velocity_mm_s", r.velocity_mm_s(), axes,
+                               &AxisConfig::max_velocity_mm_s, "max_velocity_mm_s");
+      !s.ok())
+    return s;
+  if (auto s = CheckGroupLimit(r, "move_coordinated.acceleration_mm_s2", r.acceleration_mm_s2(),
+                               axes, &AxisConfig::max_acceleration_mm_s2, "max_acceleration_mm_s2");
+      !s.ok())
+    return s;
+  out.velocity_mm_s = r.velocity_mm_s();
+  out.acceleration_mm_s2 = r.acceleration_mm_s2();
+  return out;
 }
 
 }  // namespace drivegw::server

@@ -32,6 +32,9 @@ class DriveServiceGrpc final : public v1::DriveService::CallbackService {
                                          v1::CommandHandle* resp) override;
   grpc::ServerUnaryReactor* MoveVelocity(grpc::CallbackServerContext* ctx, const v1::MoveVelocityRequest* req,
                                          v1::CommandHandle* resp) override;
+  grpc::ServerUnaryReactor* MoveCoordinated(grpc::CallbackServerContext* ctx,
+                                            const v1::MoveCoordinatedRequest* req,
+                                            v1::MoveCoordinatedResponse* resp) override;
   grpc::ServerUnaryReactor* Stop(grpc::CallbackServerContext* ctx, const v1::StopRequest* req,
                                  v1::CommandHandle* resp) override;
   grpc::ServerUnaryReactor* AcknowledgeFault(grpc::CallbackServerContext* ctx,
