@@ -37,8 +37,12 @@ Controller::Controller(const ControllerOptions& options) : options_(options) { R
 void Controller::Reset() {
   // `$CC` / power-on: every parameter back to the defaults of §5.12 (L902, L371); the reset
   // flag reads 1 once (L853). Positions restart at 0; the rotors stay where they are.
+  ++reset_count_;
   address_ = options_.address;
   globals_ = Globals{};
+  previous_v64_ = {};
+  standing_ticks_ = {};
+  velocity_changing_ = {};
   for (int m = 0; m < 6; ++m) {
     regs_[m] = MotorRegisters{};
     const int64_t rotor = state_[m].rotor;
@@ -130,6 +134,8 @@ std::optional<std::vector<uint8_t>> Controller::Handle(const Command& c) {
       if (ch == 7) analog = std::clamp<int64_t>(std::lround(options_.supply_volts * 22), 0, 1023);
       int64_t refs = 0;
       for (int i = 0; i < options_.axes; ++i) refs |= int64_t{SwitchActive(i)} << i;
+      // Jumpers JP1/JP2 in P4 bits 6/7, 1 = set (L305, L790, G-19, decision 1044).
+      refs |= int64_t{options_.jumper1} << 6 | int64_t{options_.jumper2} << 7;
       const int64_t ref = ch < options_.axes ? int64_t{SwitchActive(ch)} : 0;
       const int64_t ttlio = globals_.outputs[1] == 0 ? globals_.outputs[2] : 0;
       return EncodeReply(static_cast<uint8_t>(v[1]), c.opcode, {ch, analog, ref, refs, ttlio});
@@ -145,14 +151,22 @@ std::optional<std::vector<uint8_t>> Controller::Handle(const Command& c) {
       globals_.tunnel_address = static_cast<uint8_t>(v[1]);
       globals_.tunnel_packet_size = static_cast<uint8_t>(v[2]);
       return EncodeReply(static_cast<uint8_t>(v[0]), c.opcode, {0, 0});
-    case Opcode::kPowerDown: {  // L873-893
+    case Opcode::kPowerDown: {  // L873-893; bits executed in order 0, 1, 2, 3 (G-23)
+      // Only firmware 1.46 and since 1.49 know `$45` (L873); others ignore it (decision 1043).
+      if (options_.firmware != 146 && options_.firmware < 149) return std::nullopt;
       const int64_t a = v[1];
       int64_t status = int64_t{globals_.power_down_state} << 2;
-      if ((a & 1) && globals_.eeprom_positions_valid) status |= 1;
-      if (a & 2) globals_.eeprom_positions_valid = false;
+      if ((a & 1) && eeprom_.valid) {  // copy the saved positions into the counters (L881)
+        for (int i = 0; i < options_.axes; ++i) {
+          if (!Moving(i)) state_[i].position = eeprom_.positions[i];
+        }
+        status |= 1;
+      }
+      if (a & 2) eeprom_.valid = false;
       if (a & 4) globals_.power_down_enabled = true;
-      if ((a & 8) && options_.supply_volts > 13.0) globals_.power_down_state = false;
-      status |= int64_t{globals_.eeprom_positions_valid} << 1;
+      // Re-enable only above the power-down level (L885, L891).
+      if ((a & 8) && options_.supply_volts >= kPowerDownVolts) globals_.power_down_state = false;
+      status |= int64_t{eeprom_.valid} << 1;
       status |= int64_t{globals_.power_down_state} << 3;
       return EncodeReply(static_cast<uint8_t>(v[0]), c.opcode, {status});
     }
@@ -173,6 +187,20 @@ void Controller::Execute(const Command& c) {
   MotorRegisters& r = regs_[idx];
   MotorState& s = state_[idx];
   auto to_int = [](int64_t x) { return static_cast<int>(x); };
+  if (motors_disabled()) {
+    // Undervoltage stopped the motors; they stay off until `$45` bit 3 (L877, L891, G-23).
+    switch (c.opcode) {
+      case Opcode::kStartReferenceSearch:
+      case Opcode::kStartRamp:
+      case Opcode::kActivatePi:
+      case Opcode::kStartRotation:
+      case Opcode::kStartRampParallel:
+      case Opcode::kInterpolate:
+        return;
+      default:
+        break;
+    }
+  }
   switch (c.opcode) {
     case Opcode::kPeakCurrent:  // L507: per pair, only motnr 0/2/4 effective
       if (m % 2 == 0) {
@@ -203,7 +231,7 @@ void Controller::Execute(const Command& c) {
       r.motor_type = static_cast<uint16_t>(v[2] | (v[3] << 8));
       if (r.motor_type & mt::kAutoNullCmd) {
         r.motor_type &= static_cast<uint16_t>(~mt::kAutoNullCmd);
-        StartReferenceSearch(m);
+        if (!motors_disabled()) StartReferenceSearch(m);
       }
       break;
     case Opcode::kReferenceParameters:  // L607-616: only while stopped
@@ -375,11 +403,89 @@ void Controller::Advance(Duration dt) {
 
 void Controller::Tick() {
   ++ticks_;
+  CheckSupply();
   for (int m = 0; m < options_.axes; ++m) UpdateSwitch(m);
   for (int m = 0; m < options_.axes; ++m) {
     if (interp_master_[m] >= 0 && interp_master_[m] != m) continue;  // slaves follow the master
     TickMotor(m);
   }
+  for (int m = 0; m < options_.axes; ++m) UpdateCurrents(m);
+}
+
+void Controller::CheckSupply() {
+  // L877: below 13 V the power-down state is entered (always tracked, L879); with `$45` bit 2
+  // the positions are saved and the motors stopped at once (G-23, decision 1043).
+  if (options_.supply_volts >= kPowerDownVolts || globals_.power_down_state) return;
+  globals_.power_down_state = true;
+  if (!globals_.power_down_enabled) return;
+  for (int m = 0; m < options_.axes; ++m) {
+    ReleaseInterpolation(m);
+    MotorState& s = state_[m];
+    s.action = Action::kInactive;
+    s.v64 = 0;
+    s.rotation_velocity = 0;
+    s.target = s.position;
+    accumulator_[m] = 0;
+    eeprom_.positions[m] = s.position;
+  }
+  eeprom_.valid = true;
+}
+
+void Controller::UpdateCurrents(int m) {
+  // §5.9 [P]: I3 while |v| changes, I2 at constant velocity, I1 standing, I0 after T0 (G-09).
+  const int32_t v = state_[m].v64;
+  velocity_changing_[m] = std::abs(v) != std::abs(previous_v64_[m]);
+  previous_v64_[m] = v;
+  if (state_[m].action == Action::kInactive) {
+    ++standing_ticks_[m];
+  } else {
+    standing_ticks_[m] = 0;
+  }
+}
+
+double Controller::PeakCurrentMa(int m) const {
+  // SIXpack 0.8 A × value/256; QUADpack 1.5 A × value/256 × DIP (L511-512).
+  const double full = options_.axes == 4 ? 1500.0 * options_.quad_dip_percent[m] / 100.0 : 800.0;
+  return full * regs_[m].peak_current / 256.0;
+}
+
+double Controller::CoilCurrentMa(int m) const {
+  static constexpr std::array<double, 9> kPercent = {100, 75, 50, 38, 25, 19, 13, 9, 0};  // L520
+  const MotorRegisters& r = regs_[m];
+  int index = 0;
+  if (state_[m].action != Action::kInactive) {
+    index = velocity_changing_[m] ? r.current_index[3] : r.current_index[2];
+  } else {
+    // Stand-by once at rest for T0 × 2 ms; standing_ticks_ counts the stop tick itself (L524).
+    index = standing_ticks_[m] - 1 >= r.t0 ? r.current_index[0] : r.current_index[1];
+  }
+  return PeakCurrentMa(m) * kPercent[std::min(index, 8)] / 100.0;
+}
+
+bool Controller::Ttlout1High() const {
+  // `$32` P3: TTLOUT1 is the ready output; `$33` P0 motors active (motion other than a
+  // reference search), P1 motors in a reference search make it active = low (L816-825).
+  if ((globals_.outputs[3] & 1) == 0) return (globals_.outputs[0] & 1) != 0;
+  for (int m = 0; m < options_.axes; ++m) {
+    const Action a = state_[m].action;
+    const bool homing = a >= Action::kRefStop;
+    if (a != Action::kInactive && !homing && ((globals_.ready_active_mask >> m) & 1)) return false;
+    if (homing && ((globals_.ready_reference_mask >> m) & 1)) return false;
+  }
+  return true;
+}
+
+int Controller::DisplayDigit() const {
+  int n = 0;
+  for (int m = 0; m < options_.axes; ++m) n += Moving(m) ? 1 : 0;  // L66
+  return n;
+}
+
+bool Controller::DisplayPoint() const {
+  for (int m = 0; m < options_.axes; ++m) {
+    if (state_[m].action >= Action::kRefStop) return true;  // L66: reference search running
+  }
+  return false;
 }
 
 void Controller::UpdateSwitch(int m) {

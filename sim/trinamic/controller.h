@@ -19,6 +19,7 @@ using drivegw::trinamic::Command;
 using drivegw::trinamic::ReplyFraming;
 
 inline constexpr Duration kTick = std::chrono::milliseconds(2);  // internal cycle (L557, §5.3)
+inline constexpr double kPowerDownVolts = 13.0;                  // `$45` undervoltage level (L877)
 
 // Action codes of `$20` P5 (§4.2 `$20`, L661-662); 20..26 are the project's reference-search
 // sub-phases (G-13, decision 1033).
@@ -60,6 +61,11 @@ struct ControllerOptions {
   uint16_t flash_checksum = 0xBEEF;               // answer of `$F4` (§4.2 service functions)
   Duration reset_busy = std::chrono::seconds(1);  // `$CC` takes ~1 s (L900)
   bool lose_steps_on_abrupt_stop = true;          // §5.8 fault model
+  // CAN bit-rate jumpers, read by `$30` P4 bits 6/7 with 1 = set (L293-305, L790, G-19).
+  bool jumper1 = false;
+  bool jumper2 = false;
+  // QUADpack coarse current per motor (DIP switches 0/33/66/100 %, L197-204, L512); not readable.
+  std::array<int, 6> quad_dip_percent = {100, 100, 100, 100, 100, 100};
   std::array<MotorWorld, 6> world{};
 };
 
@@ -115,15 +121,21 @@ struct Globals {
                                    189, 205, 219, 231, 240, 247, 252, 255};  // §5.10
   uint8_t ready_active_mask = 0x3F;
   uint8_t ready_reference_mask = 0x3F;
-  std::array<uint8_t, 4> outputs = {};  // `$32` P0..P3 bit 0
-  uint16_t baud_divisor = 65;           // 19200 baud (L273)
-  uint16_t switchover = 3;              // 6 ms (L833)
-  uint16_t packet_timeout = 0;          // 0 = not set (G-04, decision 1041)
+  // `$32` P0..P3 bit 0; reset state TTLOUT1 high (READY), TTLIO1 input, ready function off (G-20).
+  std::array<uint8_t, 4> outputs = {1, 1, 0, 0};
+  uint16_t baud_divisor = 65;   // 19200 baud (L273)
+  uint16_t switchover = 3;      // 6 ms (L833)
+  uint16_t packet_timeout = 0;  // 0 = not set (G-04, decision 1037)
   uint8_t tunnel_address = 0;
   uint8_t tunnel_packet_size = 0;
   bool power_down_enabled = false;
   bool power_down_state = false;
-  bool eeprom_positions_valid = false;
+};
+
+// The position save area of `$45`: EEPROM, so it survives `$CC` and power cycles (L877-885).
+struct PositionEeprom {
+  bool valid = false;
+  std::array<int32_t, 6> positions{};
 };
 
 class Controller {
@@ -143,6 +155,11 @@ class Controller {
 
   // Power cycle / `$CC`: defaults restored, positions 0, reset flag 1 (L853, L902).
   void Reset();
+  // Number of resets so far (construction counts as one): a server emits the stray `00` byte
+  // (L228, L902) when this grows under a `$CC`.
+  uint64_t reset_count() const { return reset_count_; }
+  // A `$28` whose delayed reply is still outstanding (L740).
+  bool delayed_pending() const { return delayed_.has_value(); }
 
   // ---- Introspection and fault injection (§7 "Test support") ----
   const MotorRegisters& registers(int motor) const { return regs_[motor]; }
@@ -160,6 +177,23 @@ class Controller {
   // Moves the rotor against the counter (lost steps).
   void LoseSteps(int motor, int64_t steps) { state_[motor].rotor += steps; }
   void SetFraming(ReplyFraming framing) { options_.framing = framing; }
+  ReplyFraming framing() const { return options_.framing; }
+  // Supply voltage (channel 7, L779) and the `$45` undervoltage detection below 13 V (L877).
+  void SetSupplyVolts(double volts) { options_.supply_volts = volts; }
+  double supply_volts() const { return options_.supply_volts; }
+  void SetAnalog(int motor, uint16_t value) { options_.world[motor].analog = value; }
+  const PositionEeprom& eeprom() const { return eeprom_; }
+  // Peak coil current of the motor's pair in mA (`$10`, L505-512).
+  double PeakCurrentMa(int motor) const;
+  // Present coil current in mA (`$11` indices and T0 stand-by, §5.9, G-09, decision 1044).
+  double CoilCurrentMa(int motor) const;
+  // TTLOUT1 level (true = high = READY) from `$32` and the `$33` masks (L803-825, decision 1044).
+  bool Ttlout1High() const;
+  // 7-segment display: number of active motors, decimal point while a reference search runs (L66).
+  int DisplayDigit() const;
+  bool DisplayPoint() const;
+  // Motion commands are refused while the `$45` power-down state holds the motors (L877, L891).
+  bool motors_disabled() const { return globals_.power_down_enabled && globals_.power_down_state; }
   // Microsteps per velocity unit K (§5.1) for the motor's div (or div 3 for vmin, L543).
   double K(int motor, bool vmin_div) const;
 
@@ -178,6 +212,8 @@ class Controller {
   void StartReferenceSearch(int m);
   void ReferenceTick(int m);
   void CheckStopConditions(int m);
+  void CheckSupply();
+  void UpdateCurrents(int m);
   void StopCondition(int m);
   void MoveCounter(int m, int64_t steps);
   bool Moving(int m) const { return state_[m].action != Action::kInactive; }
@@ -211,6 +247,11 @@ class Controller {
   std::array<int64_t, 6> interp_delta_{};
   std::array<int, 6> interp_vmax_{};
   std::array<int, 6> interp_amax_{};
+  std::array<int32_t, 6> previous_v64_{};
+  std::array<int64_t, 6> standing_ticks_{};  // ticks at rest since the last motion (T0, L524)
+  std::array<bool, 6> velocity_changing_{};
+  PositionEeprom eeprom_;
+  uint64_t reset_count_ = 0;
   bool reset_flag_ = true;
   Duration busy_{};
   Duration remainder_{};

@@ -1,7 +1,9 @@
-// TrinamicServer: pty loop, 9-byte word assembly with the `$41` packet timeout, replies and
-// fault injection for the simulated SIXpack (trinamic-sixpack.md §2.3-2.6, §7).
+// TrinamicServer: pty loop, per-unit 9-byte word assembly with the `$41` packet timeout, break,
+// replies (optionally after the switchover delay) and fault injection for the simulated SIXpack
+// (trinamic-sixpack.md §2.3-2.6, §7; decisions 1037, 1039, 1040, 1045).
 #include "sim/trinamic/server.h"
 
+#include <algorithm>
 #include <utility>
 
 #include "adapters/trinamic/codec.h"
@@ -11,22 +13,29 @@ namespace drivegw::sim::trinamic {
 absl::StatusOr<std::unique_ptr<TrinamicServer>> TrinamicServer::Start(const ServerOptions& options,
                                                                       const Clock& clock) {
   if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
-  auto controller = Controller::Create(options.controller);
-  if (!controller.ok()) return controller.status();
+  std::vector<Unit> units;
+  std::vector<ControllerOptions> all = {options.controller};
+  all.insert(all.end(), options.more_units.begin(), options.more_units.end());
+  for (const ControllerOptions& o : all) {
+    auto controller = Controller::Create(o);
+    if (!controller.ok()) return controller.status();
+    const uint64_t resets = controller->reset_count();
+    units.push_back(Unit{*std::move(controller), WordAssembler{}, resets});
+  }
   auto pty = transport::PseudoTerminal::Open(options.pty_path);
   if (!pty.ok()) return pty.status();
   std::unique_ptr<TrinamicServer> server(
-      new TrinamicServer(options, clock, *std::move(pty), *std::move(controller)));
+      new TrinamicServer(options, clock, *std::move(pty), std::move(units)));
   server->thread_ = std::thread([s = server.get()] { s->Run(); });
   return server;
 }
 
 TrinamicServer::TrinamicServer(const ServerOptions& options, const Clock& clock,
-                               transport::PseudoTerminal pty, Controller controller)
+                               transport::PseudoTerminal pty, std::vector<Unit> units)
     : options_(options),
       clock_(clock),
       pty_(std::move(pty)),
-      controller_(std::move(controller)),
+      units_(std::move(units)),
       start_(clock.Now()),
       advanced_to_(start_) {}
 
@@ -39,7 +48,13 @@ void TrinamicServer::Stop() {
 
 ServerCounters TrinamicServer::counters() const {
   std::lock_guard lock(mu_);
-  return counters_;
+  ServerCounters c = counters_;
+  const AssemblerCounters& a = units_.front().words.counters();
+  c.words = a.words;
+  c.words_dropped = a.words_dropped;
+  c.partial_timeouts = a.partial_timeouts;
+  c.breaks = a.breaks;
+  return c;
 }
 
 void TrinamicServer::SetSilent(bool silent) {
@@ -55,30 +70,79 @@ void TrinamicServer::SetStuckSwitch(int motor, std::optional<bool> level) {
   WithController([&](Controller& c) { c.SetStuckSwitch(motor, level); });
 }
 
-void TrinamicServer::WithController(const std::function<void(Controller&)>& fn) {
+void TrinamicServer::WithController(const std::function<void(Controller&)>& fn) { WithUnit(0, fn); }
+
+void TrinamicServer::WithUnit(size_t index, const std::function<void(Controller&)>& fn) {
   std::lock_guard lock(mu_);
   AdvanceLocked();
-  fn(controller_);
+  fn(units_.at(index).controller);
+  // A change made by `fn` (a motion ending, the supply) may release a delayed `$28`.
+  AdvanceLocked();
+}
+
+void TrinamicServer::Break() {
+  std::lock_guard lock(mu_);
+  AdvanceLocked();
+  for (Unit& u : units_) u.words.Break();
 }
 
 void TrinamicServer::AdvanceLocked() {
   const TimePoint now = clock_.Now();
   if (options_.faults.reset_after && !reset_done_ && now >= start_ + *options_.faults.reset_after) {
     // Physics up to the power loss, then defaults, reset flag and the stray 00 byte (L228).
-    controller_.Advance(start_ + *options_.faults.reset_after - advanced_to_);
-    advanced_to_ = start_ + *options_.faults.reset_after;
-    controller_.Reset();
-    partial_.clear();
+    const TimePoint at = start_ + *options_.faults.reset_after;
+    for (Unit& u : units_) AdvanceUnitLocked(u, at);
+    advanced_to_ = at;
+    Unit& first = units_.front();
+    first.controller.Reset();
+    first.resets_seen = first.controller.reset_count();
+    first.words.Clear();
     reset_done_ = true;
     ++counters_.resets;
     SendLocked({0x00});
   }
   if (now > advanced_to_) {
-    controller_.Advance(now - advanced_to_);
+    for (Unit& u : units_) AdvanceUnitLocked(u, now);
     advanced_to_ = now;
   }
-  if (auto delayed = controller_.TakeDelayedReply(); delayed && !options_.faults.silent) {
-    SendLocked(*delayed);
+  for (Unit& u : units_) {
+    if (auto delayed = u.controller.TakeDelayedReply()) ReplyLocked(u, *std::move(delayed), now);
+  }
+  FlushLocked(now);
+}
+
+void TrinamicServer::AdvanceUnitLocked(Unit& unit, TimePoint now) {
+  // While a delayed `$28` waits, step tick by tick so that its reply is timed from the tick in
+  // which the masked motors came to rest (L740, CT-16), not from the end of a long advance.
+  TimePoint t = advanced_to_;
+  while (t < now && unit.controller.delayed_pending()) {
+    const Duration step = std::min<Duration>(kTick, now - t);
+    unit.controller.Advance(step);
+    t += step;
+    if (auto delayed = unit.controller.TakeDelayedReply()) {
+      ReplyLocked(unit, *std::move(delayed), t);
+    }
+  }
+  if (now > t) unit.controller.Advance(now - t);
+}
+
+void TrinamicServer::ReplyLocked(const Unit& unit, std::vector<uint8_t> bytes, TimePoint at) {
+  if (options_.faults.silent) return;
+  if (!options_.turnaround) {
+    SendLocked(bytes);
+    return;
+  }
+  // The PACK starts transmitting only after the switchover time (L283, L833); replies leave in
+  // order, so a later one never overtakes an earlier one (decision 1040).
+  TimePoint due = at + kTick * unit.controller.globals().switchover;
+  if (!outbox_.empty()) due = std::max(due, outbox_.back().due);
+  outbox_.push_back(PendingReply{due, std::move(bytes)});
+}
+
+void TrinamicServer::FlushLocked(TimePoint now) {
+  while (!outbox_.empty() && outbox_.front().due <= now) {
+    SendLocked(outbox_.front().bytes);
+    outbox_.pop_front();
   }
 }
 
@@ -86,31 +150,44 @@ void TrinamicServer::SendLocked(const std::vector<uint8_t>& bytes) {
   if (pty_.Write(bytes).ok()) ++counters_.replies;
 }
 
+void TrinamicServer::HandleLocked(Unit& unit, const drivegw::trinamic::Command& command,
+                                  TimePoint now) {
+  auto reply = unit.controller.Handle(command);
+  if (unit.controller.reset_count() != unit.resets_seen) {
+    // `$CC`: the RS-232 receives one `00` byte while the unit restarts (L228, L902, CT-47);
+    // replies still waiting for the switchover are lost with the reset.
+    unit.resets_seen = unit.controller.reset_count();
+    outbox_.clear();
+    ++counters_.reset_bytes;
+    SendLocked({0x00});
+  }
+  if (reply) ReplyLocked(unit, *std::move(reply), now);
+}
+
 void TrinamicServer::ReceiveLocked(const std::vector<uint8_t>& bytes) {
   const TimePoint now = clock_.Now();
-  const uint16_t t41 = controller_.globals().packet_timeout;
-  const Duration timeout =
-      t41 == 0 ? options_.default_packet_timeout : Duration(std::chrono::milliseconds(2) * t41);
   counters_.bytes_in += bytes.size();
-  for (uint8_t b : bytes) {
-    // A word must be complete within the packet timeout, measured from its first byte (L279).
-    if (!partial_.empty() && now - partial_since_ > timeout) {
-      partial_.clear();
-      ++counters_.partial_timeouts;
-    }
-    if (partial_.empty()) partial_since_ = now;
-    partial_.push_back(b);
-    if (partial_.size() < drivegw::trinamic::kCommandSize) continue;
-    auto command = drivegw::trinamic::DecodeCommand(partial_);
-    partial_.clear();
-    if (!command.ok()) {
-      ++counters_.words_dropped;  // not executed, no answer (L279, G-06)
+  int peer_baud = 0;
+  if (options_.check_peer_baud) {
+    // Both pty ends share one termios (§2.7): the speed the peer set is the one it "sends" at.
+    auto peer = pty_.PeerBaud();
+    peer_baud = peer.ok() ? *peer : -1;
+  }
+  for (size_t i = 0; i < units_.size(); ++i) {
+    Unit& u = units_[i];
+    if (options_.check_peer_baud && !BaudMatches(peer_baud, u.controller.globals().baud_divisor)) {
+      // At the wrong speed a UART sees framing errors, not words: the bytes are noise and the
+      // partial word is lost (L273, L832, CT-08, decision 1045).
+      u.words.Clear();
+      if (i == 0) counters_.noise_bytes += bytes.size();
       continue;
     }
-    ++counters_.words;
-    auto reply = controller_.Handle(*command);
-    if (reply && !options_.faults.silent) SendLocked(*reply);
+    const uint16_t t41 = u.controller.globals().packet_timeout;
+    const Duration timeout = t41 == 0 ? options_.default_packet_timeout : Duration(kTick * t41);
+    u.words.Feed(bytes, now, timeout,
+                 [&](const drivegw::trinamic::Command& c) { HandleLocked(u, c, now); });
   }
+  FlushLocked(now);
 }
 
 void TrinamicServer::Run() {

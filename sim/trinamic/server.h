@@ -1,9 +1,11 @@
-// TrinamicServer: one simulated SIXpack/QUADpack on a pseudo-terminal; the controller is advanced
-// to an injected clock on every byte burst (never by sleeping), with packet timeout and faults.
+// TrinamicServer: simulated SIXpack/QUADpacks on a pseudo-terminal (one unit, or several on one
+// RS-485 line); the controllers are advanced to an injected clock on every byte burst (never by
+// sleeping), with packet timeout, break, switchover delay, baud check and faults.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -16,6 +18,7 @@
 #include "adapters/transport/pty.h"
 #include "sim/trinamic/controller.h"
 #include "sim/trinamic/options.h"
+#include "sim/trinamic/word_assembler.h"
 
 namespace drivegw::sim::trinamic {
 
@@ -25,12 +28,16 @@ struct ServerCounters {
   uint64_t words_dropped = 0;     // complete words the codec refused (unknown opcode, G-06)
   uint64_t partial_timeouts = 0;  // partial words discarded by the packet timeout (L279)
   uint64_t replies = 0;
-  uint64_t resets = 0;  // injected power losses
+  uint64_t resets = 0;       // injected power losses
+  uint64_t breaks = 0;       // breaks that discarded a partial word (L279)
+  uint64_t noise_bytes = 0;  // bytes ignored at the wrong peer speed (check_peer_baud)
+  uint64_t reset_bytes = 0;  // stray `00` bytes sent after `$CC` (L228, L902)
 };
 
 // Thread model: one thread owns the pty loop; public methods are thread-safe and serialised with
-// it by one mutex. Replies are written at once: a pty enforces no character timing, so the `$40`
-// switchover delay is not reproduced here (decision 1037).
+// it by one mutex. Counters of word framing are those of the first unit. Replies are written at
+// once, or with `turnaround` held until the `$40` switchover time has passed on the injected
+// clock (decisions 1037, 1040).
 class TrinamicServer {
  public:
   // `clock` must outlive the server (ManualClock in tests, SteadyClock::Instance() otherwise).
@@ -50,24 +57,43 @@ class TrinamicServer {
   void SetStuckSwitch(int motor, std::optional<bool> level);
   // Runs `fn` on the controller under the lock after advancing it to clock.Now().
   void WithController(const std::function<void(Controller&)>& fn);
+  // The same for unit `index` (0 = options.controller, then options.more_units in order).
+  void WithUnit(size_t index, const std::function<void(Controller&)>& fn);
+  size_t unit_count() const { return units_.size(); }
+  // Out-of-band break received at clock.Now(): every unit discards its partial word (L279). A pty
+  // carries no break (§2.7, G-39), so tests and tools call this instead of tcsendbreak.
+  void Break();
 
  private:
+  struct Unit {
+    Controller controller;
+    WordAssembler words;
+    uint64_t resets_seen = 0;
+  };
+  struct PendingReply {
+    TimePoint due;
+    std::vector<uint8_t> bytes;
+  };
+
   TrinamicServer(const ServerOptions& options, const Clock& clock, transport::PseudoTerminal pty,
-                 Controller controller);
+                 std::vector<Unit> units);
   void Run();
   void AdvanceLocked();
+  void AdvanceUnitLocked(Unit& unit, TimePoint now);
   void ReceiveLocked(const std::vector<uint8_t>& bytes);
+  void HandleLocked(Unit& unit, const drivegw::trinamic::Command& command, TimePoint now);
+  void ReplyLocked(const Unit& unit, std::vector<uint8_t> bytes, TimePoint at);
+  void FlushLocked(TimePoint now);
   void SendLocked(const std::vector<uint8_t>& bytes);
 
   ServerOptions options_;
   const Clock& clock_;
   transport::PseudoTerminal pty_;
   mutable std::mutex mu_;
-  Controller controller_;
+  std::vector<Unit> units_;  // [0] = options.controller
+  std::deque<PendingReply> outbox_;
   TimePoint start_;
   TimePoint advanced_to_;
-  std::vector<uint8_t> partial_;
-  TimePoint partial_since_{};
   bool reset_done_ = false;
   ServerCounters counters_;
   std::atomic<bool> stop_{false};

@@ -640,7 +640,9 @@ TEST(ControllerQuery, ChangeAddress_TakesEffectImmediately) {
 }
 
 TEST(ControllerQuery, TunnelPowerDownAndServiceFunctions) {
-  Controller c = Make();
+  ControllerOptions o;
+  o.firmware = 149;  // `$45` exists in firmware 1.46 and since 1.49 (L873)
+  Controller c = Make(o);
   auto r = c.Handle(Cmd(Opcode::kRs232Tunnel, {kRa, 0x20, 8}));
   ASSERT_TRUE(r);
   EXPECT_THAT(*r, ElementsAre(0x44, 0, 0, 0, 0, 0, 0, 0));
