@@ -60,8 +60,8 @@ absl::StatusOr<const ParameterDefinition*> FindParameter(uint32_t id);
 absl::StatusOr<const ParameterDefinition*> FindParameter(std::string_view name);
 
 // An advisory for a value that is valid but doubtful (G-08: vstart below 8, L363; G-09: a current
-// index 6 or 7 for I1..I3 is below the 19 % needed for proper microstepping, L329). Logging it is
-// the drive's job; nullopt when there is nothing to say. Does not range-check.
+// index above 5 for I1..I3 is below the 19 % needed for proper microstepping, L329). Logging it
+// is the drive's job; nullopt when there is nothing to say. Does not range-check.
 std::optional<std::string> ParameterWarning(uint32_t id, int64_t value);
 
 // The values of one axis plus the controller-wide ones as the gateway believes the PACK holds
