@@ -1,7 +1,6 @@
 // Parses and validates the gateway YAML; yaml-cpp exceptions stop here and become Status.
 #include "server/config/config.h"
 
-#include <arpa/inet.h>
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
@@ -19,9 +18,20 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "adapters/trinamic/factory.h"
+#include "server/config/can_config.h"
+#include "server/config/section.h"
+#include "server/config/trinamic_config.h"
 
 namespace drivegw::config {
 namespace {
+
+using internal::Av;
+using internal::BusKey;
+using internal::Errors;
+using internal::KindName;
+using internal::ParseCan;
+using internal::Section;
 
 // Bounds for every integer key; docs/config.md shows the same table.
 constexpr int64_t kMaxPort = 65535;
@@ -32,189 +42,7 @@ constexpr int64_t kMaxRequestMs = 600000;  // 10 min
 constexpr int64_t kMaxAcceptMs = 60000;    // 1 min
 constexpr int64_t kMaxHomingMs = 3600000;  // 1 h
 constexpr size_t kMaxNameLength = 32;
-constexpr int64_t kMaxMacId = 63;           // DeviceNet MAC IDs are 0..63
-constexpr size_t kMaxInterfaceLength = 15;  // IFNAMSIZ - 1
-constexpr size_t kMaxErrors = 20;
-
-absl::string_view Av(std::string_view s) { return absl::string_view(s.data(), s.size()); }
-
-// Edit distance, for "did you mean" on misspelt keys.
-size_t Distance(std::string_view a, std::string_view b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diag = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
-
-// Collects every problem so one run of the gateway reports them all.
-class Errors {
- public:
-  void Add(std::string_view path, std::string_view what, const YAML::Node& at) {
-    std::string line = absl::StrCat(Av(path), ": ", Av(what));
-    if (at.IsDefined()) {
-      const YAML::Mark mark = at.Mark();
-      if (!mark.is_null()) {
-        absl::StrAppend(&line, " (line ", mark.line + 1, ", column ", mark.column + 1, ")");
-      }
-    }
-    if (list_.size() < kMaxErrors) list_.push_back(std::move(line));
-    ++count_;
-  }
-  bool empty() const { return count_ == 0; }
-  absl::Status ToStatus() const {
-    std::string msg = absl::StrJoin(list_, "; ");
-    if (count_ > list_.size()) absl::StrAppend(&msg, "; and ", count_ - list_.size(), " more");
-    return absl::InvalidArgumentError(msg);
-  }
-
- private:
-  std::vector<std::string> list_;
-  size_t count_ = 0;
-};
-
-const char* KindName(const YAML::Node& node) {
-  switch (node.Type()) {
-    case YAML::NodeType::Null:
-      return "null";
-    case YAML::NodeType::Scalar:
-      return "a scalar";
-    case YAML::NodeType::Sequence:
-      return "a sequence";
-    case YAML::NodeType::Map:
-      return "a mapping";
-    case YAML::NodeType::Undefined:
-      break;
-  }
-  return "nothing";
-}
-
-// A mapping whose keys are checked against the schema: unknown, duplicate and non-scalar keys
-// are errors; Get() hands out the known ones.
-class Section {
- public:
-  Section(const YAML::Node& node, std::string path, std::initializer_list<std::string_view> keys,
-          Errors& errors)
-      : path_(std::move(path)), errors_(errors) {
-    if (node.IsNull()) return;  // "listen:" with nothing below: all defaults
-    if (!node.IsMap()) {
-      errors_.Add(Label(), absl::StrCat("expected a mapping, got ", KindName(node)), node);
-      return;
-    }
-    for (const auto& kv : node) {
-      if (!kv.first.IsScalar()) {
-        errors_.Add(Label(), "keys must be plain names", kv.first);
-        continue;
-      }
-      const std::string key = kv.first.Scalar();
-      const std::string key_path = Child(key);
-      if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
-        std::string what = "unknown key";
-        for (std::string_view known : keys) {
-          if (Distance(key, known) <= 2) {
-            absl::StrAppend(&what, " (did you mean '", Av(known), "'?)");
-            break;
-          }
-        }
-        errors_.Add(key_path, what, kv.first);
-        continue;
-      }
-      if (!values_.emplace(key, kv.second).second) {
-        errors_.Add(key_path, "duplicate key", kv.first);
-      }
-    }
-  }
-
-  // The value under `key`, or nullopt when absent.
-  std::optional<YAML::Node> Get(std::string_view key) const {
-    auto it = values_.find(std::string(key));
-    if (it == values_.end()) return std::nullopt;
-    return it->second;
-  }
-  bool Has(std::string_view key) const { return values_.count(std::string(key)) != 0; }
-
-  std::string Child(std::string_view key) const {
-    return path_.empty() ? std::string(key) : absl::StrCat(path_, ".", Av(key));
-  }
-  std::string Label() const { return path_.empty() ? "(root)" : path_; }
-  Errors& errors() const { return errors_; }
-
-  // ---- typed readers: a missing key leaves `out` at its default ----
-
-  // `required` adds "<path>: required" when absent.
-  bool String(std::string_view key, std::string& out, bool required = false) const {
-    auto node = Get(key);
-    if (!node) {
-      if (required) errors_.Add(Child(key), "required", YAML::Node());
-      return false;
-    }
-    if (!node->IsScalar()) {
-      errors_.Add(Child(key), absl::StrCat("expected a string, got ", KindName(*node)), *node);
-      return false;
-    }
-    out = node->Scalar();
-    return true;
-  }
-
-  bool Int(std::string_view key, int64_t min, int64_t max, int64_t& out) const {
-    auto node = Get(key);
-    if (!node) return false;
-    int64_t value = 0;
-    if (!node->IsScalar() || !absl::SimpleAtoi(node->Scalar(), &value)) {
-      errors_.Add(Child(key), absl::StrCat(Shown(*node), " is not an integer"), *node);
-      return false;
-    }
-    if (value < min) {
-      errors_.Add(Child(key), absl::StrCat(value, " is below ", min), *node);
-      return false;
-    }
-    if (value > max) {
-      errors_.Add(Child(key), absl::StrCat(value, " exceeds ", max), *node);
-      return false;
-    }
-    out = value;
-    return true;
-  }
-
-  bool Double(std::string_view key, double& out, bool required) const {
-    auto node = Get(key);
-    if (!node) {
-      if (required) errors_.Add(Child(key), "required", YAML::Node());
-      return false;
-    }
-    double value = 0;
-    if (!node->IsScalar() || !absl::SimpleAtod(node->Scalar(), &value) || !std::isfinite(value)) {
-      errors_.Add(Child(key), absl::StrCat(Shown(*node), " is not a finite number"), *node);
-      return false;
-    }
-    out = value;
-    return true;
-  }
-
-  bool Millis(std::string_view key, int64_t max, std::chrono::milliseconds& out) const {
-    int64_t ms = 0;
-    if (!Int(key, 1, max, ms)) return false;
-    out = std::chrono::milliseconds(ms);
-    return true;
-  }
-
-  static std::string Shown(const YAML::Node& node) {
-    if (node.IsScalar()) return absl::StrCat("'", node.Scalar(), "'");
-    return KindName(node);
-  }
-
- private:
-  std::string path_;
-  Errors& errors_;
-  std::map<std::string, YAML::Node> values_;
-};
+constexpr int64_t kMaxMacId = 63;  // DeviceNet MAC IDs are 0..63
 
 bool IsNameChar(char c) {
   return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
@@ -306,84 +134,6 @@ void ParseLinUdp(const Section& drive, LinUdpConfig& out) {
   }
 }
 
-// Linux dev_valid_name: 1..15 characters, not "." or "..", no '/', ':' or white space.
-bool IsValidInterfaceName(std::string_view name) {
-  if (name.empty() || name.size() > kMaxInterfaceLength || name == "." || name == "..") {
-    return false;
-  }
-  return std::none_of(name.begin(), name.end(), [](char c) {
-    return c == '/' || c == ':' || c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\0';
-  });
-}
-
-// Dotted-quad IPv4 in 224.0.0.0/4 (python-can's udp_multicast default is 239.74.163.2).
-bool IsIpv4Multicast(const std::string& text) {
-  in_addr addr{};
-  return ::inet_pton(AF_INET, text.c_str(), &addr) == 1 && (ntohl(addr.s_addr) >> 28) == 0xE;
-}
-
-// can: {socketcan: {interface: can0}} | {udp: {group: G, port: P}}, optional trace: FILE
-// (docs/config.md "can"; docs/decisions/801-can-channel.md).
-void ParseCan(const Section& drive, CanBusConfig& out) {
-  const YAML::Node node = *drive.Get("can");
-  const Section s(node, drive.Child("can"), {"socketcan", "udp", "trace"}, drive.errors());
-  if (!node.IsMap()) {
-    if (node.IsNull()) {
-      s.errors().Add(s.Label(), "needs exactly one of socketcan, udp", node);
-    }
-    return;
-  }
-  const bool socketcan = s.Has("socketcan");
-  const bool udp = s.Has("udp");
-  if (socketcan == udp) {
-    s.errors().Add(s.Label(),
-                   socketcan ? "has both socketcan and udp; a drive is on one bus"
-                             : "needs exactly one of socketcan, udp",
-                   node);
-  }
-  if (socketcan) {
-    out.kind = CanBusConfig::Kind::kSocketCan;
-    const YAML::Node sub = *s.Get("socketcan");
-    const Section sc(sub, s.Child("socketcan"), {"interface"}, s.errors());
-    if (sub.IsNull() || sub.IsMap()) {
-      if (!sub.IsMap()) {
-        sc.errors().Add(sc.Child("interface"), "required", YAML::Node());
-      } else if (sc.String("interface", out.interface, /*required=*/true) &&
-                 !IsValidInterfaceName(out.interface)) {
-        sc.errors().Add(sc.Child("interface"),
-                        absl::StrCat("'", out.interface,
-                                     "' is not a network interface name (1..15 characters, no "
-                                     "'/', ':' or spaces)"),
-                        *sc.Get("interface"));
-      }
-    }
-  } else if (udp) {
-    out.kind = CanBusConfig::Kind::kUdpMulticast;
-    const YAML::Node sub = *s.Get("udp");
-    const Section u(sub, s.Child("udp"), {"group", "port"}, s.errors());
-    if (sub.IsMap()) {  // "udp:" alone takes python-can's defaults
-      if (u.String("group", out.group) && !IsIpv4Multicast(out.group)) {
-        u.errors().Add(
-            u.Child("group"),
-            absl::StrCat("'", out.group, "' is not an IPv4 multicast address (224.0.0.0/4)"),
-            *u.Get("group"));
-      }
-      int64_t port = 0;
-      if (u.Int("port", 1, kMaxPort, port)) out.port = static_cast<uint16_t>(port);
-    }
-  }
-  if (s.String("trace", out.trace_file) && out.trace_file.empty()) {
-    s.errors().Add(s.Child("trace"), "must not be empty (omit the key to trace nothing)",
-                   *s.Get("trace"));
-  }
-}
-
-// "socketcan:can0" / "udp:239.74.163.2:43113": which drives share a bus.
-std::string BusKey(const CanBusConfig& can) {
-  if (can.kind == CanBusConfig::Kind::kSocketCan) return absl::StrCat("socketcan:", can.interface);
-  return absl::StrCat("udp:", can.group, ":", can.port);
-}
-
 void ParseAxis(const Section& drive, AxisConfig& out) {
   auto node = drive.Get("axis");
   if (!node) {
@@ -436,6 +186,41 @@ void ParseTimeouts(const Section& drive, TimeoutConfig& out) {
   s.Millis("homing_ms", kMaxHomingMs, out.homing);
 }
 
+// drives[i].trinamic: required for family trinamic and only there; the family's transport lives
+// inside it, so the drive-level transport keys would be silently ignored (decision 405).
+void ParseTrinamicDrive(const Section& s, size_t index, DriveConfig& drive,
+                        internal::TrinamicControllers& controllers) {
+  const bool is_trinamic = drive.family == trinamic::kFamilyName;
+  if (!s.Has("trinamic")) {
+    if (is_trinamic) {
+      s.errors().Add(s.Child("trinamic"),
+                     "required for family trinamic (serial or can, address, axis, "
+                     "microsteps_per_unit)",
+                     YAML::Node());
+    }
+    return;
+  }
+  if (!is_trinamic) {
+    s.errors().Add(s.Child("trinamic"),
+                   absl::StrCat("only for family trinamic, not '", drive.family, "'"),
+                   *s.Get("trinamic"));
+    return;
+  }
+  for (std::string_view key : {"linudp", "can", "mac_id"}) {
+    if (s.Has(key)) {
+      s.errors().Add(s.Child(key),
+                     absl::StrCat("not used by family trinamic",
+                                  key == "can" ? " (its bus goes under trinamic.can)" : ""),
+                     *s.Get(key));
+    }
+  }
+  TrinamicConfig t;
+  if (internal::ParseTrinamic(s, drive.axis, t)) {
+    controllers.Add(index, s.Child("trinamic"), t, *s.Get("trinamic"));
+  }
+  drive.trinamic = std::move(t);
+}
+
 std::string FamilyList(std::span<const std::string_view> families) {
   std::vector<std::string> names;
   for (std::string_view f : families) names.emplace_back(f);
@@ -458,6 +243,7 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
   std::map<std::string, size_t> names;                         // name -> index
   std::map<std::pair<std::string, uint16_t>, size_t> targets;  // linudp host:port -> index
   std::map<std::pair<std::string, uint8_t>, size_t> mac_ids;   // (CAN bus, MAC ID) -> index
+  internal::TrinamicControllers trinamic(errors);
   for (size_t i = 0; i < node.size(); ++i) {
     const YAML::Node entry = node[i];
     const std::string path = absl::StrCat("drives[", i, "]");
@@ -465,7 +251,8 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
       errors.Add(path, absl::StrCat("expected a mapping, got ", KindName(entry)), entry);
       continue;
     }
-    const Section s(entry, path, {"name", "family", "linudp", "can", "mac_id", "axis", "timeouts"},
+    const Section s(entry, path,
+                    {"name", "family", "linudp", "can", "mac_id", "trinamic", "axis", "timeouts"},
                     errors);
     DriveConfig drive;
     if (s.String("name", drive.name, /*required=*/true)) {
@@ -525,8 +312,10 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
     }
     ParseAxis(s, drive.axis);
     ParseTimeouts(s, drive.timeouts);
+    ParseTrinamicDrive(s, i, drive, trinamic);
     cfg.drives.push_back(std::move(drive));
   }
+  trinamic.Finish();
 }
 
 // Records where each document starts; the tree itself is built by YAML::Load afterwards.
@@ -677,6 +466,35 @@ std::vector<DriveConfig> DemoDrives(uint16_t first_drive_port) {
     udp.host = "127.0.0.1";
     udp.port = static_cast<uint16_t>(first_drive_port + i);
     d.linudp = udp;
+    drives.push_back(std::move(d));
+  }
+  return drives;
+}
+
+std::vector<DriveConfig> DemoTrinamicDrives(const std::string& device) {
+  std::vector<DriveConfig> drives;
+  for (uint8_t motor : {0, 1}) {
+    DriveConfig d;
+    d.name = motor == 0 ? "feeder-x" : "feeder-y";
+    d.family = trinamic::kFamilyName;
+    // A 1.8° stepper at 16 microsteps (3200 microsteps/rev) on a 5 mm lead screw: 640 /mm.
+    // Limits reachable with the PACK's reset defaults (trinamic-sixpack.md §5.12, units.h):
+    // clkdiv 5, div 2 -> K = 20 MHz / (6 x 2^16) = 50.86 microsteps/s per velocity unit (§5.1);
+    // vmax 511 -> 25991 microsteps/s = 40.6 mm/s, so 40 mm/s (register 503).
+    // amax <= vstart x 64 = 5 x 64 = 320 (L556) -> 7.8125 x 320 x K = 127157 microsteps/s²
+    // = 198.7 mm/s² (§5.3), so 190 mm/s² (amax 306). 200 mm = 128000 microsteps (int32, §5.2).
+    d.axis.kind = AxisKind::kLinear;
+    d.axis.min_mm = 0;
+    d.axis.max_mm = 200;
+    d.axis.max_velocity_mm_s = 40;
+    d.axis.max_acceleration_mm_s2 = 190;
+    TrinamicConfig t;
+    t.serial = SerialLineConfig{.device = device, .baud = 19200};
+    t.address = 1;
+    t.axis = motor;
+    t.axes = 6;
+    t.microsteps_per_unit = 640;
+    d.trinamic = std::move(t);
     drives.push_back(std::move(d));
   }
   return drives;

@@ -13,8 +13,9 @@
 namespace drivegw::config {
 
 // Drive families the composition root can build; each new family appends its name here
-// (later: "trinamic", "stober"). linmot-devicenet requires `can:` and `mac_id`.
-inline constexpr std::string_view kKnownFamilies[] = {"linmot", "linmot-devicenet"};
+// (later: "stober"). linmot requires `linudp:`, linmot-devicenet `can:` and `mac_id`, trinamic
+// `trinamic:` (docs/config.md).
+inline constexpr std::string_view kKnownFamilies[] = {"linmot", "linmot-devicenet", "trinamic"};
 
 // Larger inputs are refused before parsing (bounds parser work; a real config is a few KiB).
 inline constexpr size_t kMaxConfigBytes = 1 << 20;
@@ -45,5 +46,10 @@ absl::StatusOr<GatewayConfig> LoadConfigFile(
 // The two demo LinMot drives "x1" and "x2" (family linmot, LinUDP on 127.0.0.1 ports
 // first_drive_port and first_drive_port + 1) that the server backs with embedded simulators.
 std::vector<DriveConfig> DemoDrives(uint16_t first_drive_port = 49360);
+
+// The two demo Trinamic axes "feeder-x" (motor 0) and "feeder-y" (motor 1) of one simulated
+// SIXpack at address 1 on the serial device `device` (the pty symlink the server creates):
+// 19200 baud, 640 microsteps/mm, limits reachable with the PACK's reset defaults.
+std::vector<DriveConfig> DemoTrinamicDrives(const std::string& device);
 
 }  // namespace drivegw::config

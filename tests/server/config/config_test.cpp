@@ -224,15 +224,16 @@ TEST(ParseConfigTest, DuplicateName_PointsAtFirst) {
 
 TEST(ParseConfigTest, UnknownFamily_ListsKnownOnes) {
   EXPECT_THAT(ErrorOf(OneDriveWith("family: linmot", "family: foo")).message(),
-              HasSubstr("drives[0].family: 'foo' is not one of [linmot, linmot-devicenet]"));
+              HasSubstr("drives[0].family: 'foo' is not one of [linmot, linmot-devicenet, "
+                        "trinamic]"));
 }
 
 TEST(ParseConfigTest, FamilyList_IsAParameter) {
-  constexpr std::string_view kMore[] = {"linmot", "trinamic"};
-  std::string yaml = OneDriveWith("family: linmot", "family: trinamic");
+  constexpr std::string_view kMore[] = {"linmot", "stober"};
+  std::string yaml = OneDriveWith("family: linmot", "family: stober");
   EXPECT_TRUE(ParseConfig(yaml, kMore).ok());
   EXPECT_THAT(ParseConfig(OneDriveWith("family: linmot", "family: foo"), kMore).status().message(),
-              HasSubstr("'foo' is not one of [linmot, trinamic]"));
+              HasSubstr("'foo' is not one of [linmot, stober]"));
 }
 
 TEST(ParseConfigTest, UnknownKey_NamesFullPathAndSuggests) {
