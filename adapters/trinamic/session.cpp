@@ -222,6 +222,10 @@ class CanLink final : public SessionLink {
     }
   }
 
+  absl::Status SendCanFrame(uint16_t id, const std::vector<uint8_t>& data) override {
+    return channel_->Send(transport::MakeCanFrame(id, data));
+  }
+
   Extra AfterReply(microseconds window, SessionCounters&) override {
     const Deadline end = SessionClock::now() + window;
     for (;;) {
@@ -465,6 +469,23 @@ absl::Status ControllerSession::ProbeLocked() {
 absl::Status ControllerSession::Probe() {
   std::lock_guard<std::mutex> lock(io_mutex_);
   return ProbeLocked();
+}
+
+absl::Status ControllerSession::SendTunnel(const std::vector<uint8_t>& data) {
+  if (data.empty() || data.size() > 8) {
+    return absl::InvalidArgumentError(absl::StrCat(name_, ": rs232 tunnel: ", data.size(),
+                                                   " bytes, a frame carries 1..8 (L315)"));
+  }
+  auto id = TunnelTransmitCanId(options_.address);
+  if (!id.ok()) return id.status();
+  std::lock_guard<std::mutex> lock(io_mutex_);
+  std::this_thread::sleep_until(last_word_end_ + options_.command_gap);
+  absl::Status s = link_->SendCanFrame(*id, data);
+  last_word_end_ = SessionClock::now();
+  if (!s.ok()) return absl::Status(s.code(), absl::StrCat(name_, ": rs232 tunnel: ", s.message()));
+  std::lock_guard<std::mutex> l(state_mutex_);
+  ++counters_.requests;
+  return absl::OkStatus();
 }
 
 absl::StatusOr<std::optional<Reply>> ControllerSession::Transact(const Command& command,

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -102,6 +103,12 @@ class SessionLink {
   enum class Extra { kNone, kDuplicate, kGarbage };
   virtual Extra AfterReply(std::chrono::microseconds window, SessionCounters& counters) = 0;
   virtual std::optional<ReplyFraming> framing() const { return std::nullopt; }
+  // One raw CAN frame (the `$44` RS-232 tunnel, §3.5 L307-317); serial links cannot.
+  virtual absl::Status SendCanFrame(uint16_t id, const std::vector<uint8_t>& data) {
+    (void)id;
+    (void)data;
+    return absl::FailedPreconditionError("tunnel needs CAN");
+  }
 };
 
 class ControllerSession {
@@ -132,6 +139,10 @@ class ControllerSession {
   absl::StatusOr<std::optional<Reply>> Transact(const Command& command, Deadline deadline);
   // Runs the $43 probe now (connect, framing detection, reset flag).
   absl::Status Probe();
+  // RS-232-over-CAN tunnel (§3.5, L307-317): `data` (1..8 bytes) as one frame on
+  // TunnelTransmitCanId(address), DLC = size, serialised with Transact. Serial link:
+  // FailedPrecondition "tunnel needs CAN"; InvalidArgument for 0 or more than 8 bytes.
+  absl::Status SendTunnel(const std::vector<uint8_t>& data);
 
   int AddObserver(SessionObserver* observer);
   void RemoveObserver(int id);

@@ -1,0 +1,157 @@
+// Pack: the gateway's side of one SIXpack/QUADpack controller, shared by the axis drives of that
+// controller. Owns the serialised ControllerSession and one poll thread that reads position/action
+// ($20) and velocity ($21) of every registered axis and probes $43 for resets; re-applies every
+// axis's parameter shadow after a detected reset before any other word goes out (CT-57, G-24).
+// Reference: trinamic-sixpack.md §2.5, §4.2 $20/$21/$43, §8 CT-57; decisions 1081-1099.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "adapters/core/drive_config.h"
+#include "adapters/trinamic/codec.h"
+#include "adapters/trinamic/session.h"
+
+namespace drivegw::trinamic {
+
+// One poll result of an axis: `$20` (posact, action, stop flag) plus the newest `$21` vact.
+struct AxisSample {
+  int32_t posact = 0;
+  uint8_t action = 0;
+  bool stop_flag = false;  // `$20` P6 bit 0, cleared by the PACK on read (L663): latch it
+  int vact = 0;            // velocity register of the newest `$21` (−511..511)
+  // When the `$20` query was handed to the session: a sample reflects every word that completed
+  // before this instant (the session never interleaves, L357).
+  SessionClock::time_point sent{};
+};
+
+// The drive side of a registration. Called from the Pack's poll thread (or from a thread inside
+// Pack::Send), never with a session lock held; implementations may call Pack::Send.
+class PackListener {
+ public:
+  virtual ~PackListener() = default;
+  virtual void OnSample(const AxisSample& sample) noexcept = 0;
+  virtual void OnLink(LinkState state, const std::string& reason) noexcept = 0;
+  // The PACK was reset and this axis's ApplyCommands were re-sent (CT-57).
+  virtual void OnControllerReset() noexcept = 0;
+  // A second controller answered with our address (decision 1055).
+  virtual void OnDuplicateAddress(const std::string& detail) noexcept = 0;
+  // The words that bring a freshly reset PACK to this axis's configuration; controller-scoped
+  // words only when `controller` (sent once per PACK).
+  virtual std::vector<Command> ApplyCommands(bool controller) const = 0;
+};
+
+struct PackCounters {
+  uint64_t polls = 0;           // `$20` queries answered
+  uint64_t velocity_polls = 0;  // `$21` queries answered
+  uint64_t poll_failures = 0;
+  uint64_t reset_probes = 0;    // `$43` every ~500 ms
+  uint64_t resets = 0;          // resets detected (reset flag / observer)
+  uint64_t reapplied_words = 0;  // configuration words sent by the (re-)apply path
+  uint64_t duplicates = 0;
+};
+
+class Pack final : private SessionObserver {
+ public:
+  // Key: serial device (or CAN bus spec) + address. Returns the live Pack of that controller or
+  // opens a new one (transport opened, session created, no I/O yet). Same key with different
+  // transport settings: InvalidArgument naming the field.
+  static absl::StatusOr<std::shared_ptr<Pack>> Acquire(const TrinamicConfig& config);
+  // "serial:/dev/ttyUSB0#1" or "can:udp:239.74.163.2:43113#1".
+  static std::string KeyOf(const TrinamicConfig& config);
+
+  ~Pack() override;
+  Pack(const Pack&) = delete;
+  Pack& operator=(const Pack&) = delete;
+
+  // Registers `listener` for motor `axis`, polled every `poll_period`; its ApplyCommands are sent
+  // before its first sample. Starts the poll thread. AlreadyExists for a second drive on `axis`.
+  absl::Status Register(uint8_t axis, PackListener* listener,
+                        std::chrono::milliseconds poll_period);
+  // Returns once no callback of `listener` runs any more; stops the thread with the last axis.
+  void Unregister(uint8_t axis);
+
+  // One word through the session (serialised). Runs a pending re-apply first, so no motion word
+  // reaches a freshly reset PACK before its parameters (CT-57).
+  absl::StatusOr<std::optional<Reply>> Send(const Command& command, Deadline deadline);
+  // The `$44` tunnel: `data` (1..8 bytes) as one CAN frame on TunnelTransmitCanId(address).
+  absl::Status SendTunnel(const std::vector<uint8_t>& data);
+  // `$43` now (connect, framing detection, reset flag); re-apply if it reported a reset.
+  absl::Status Probe();
+  // Polls `axis` at once (a drive waiting for a command's confirmation).
+  void PollSoon(uint8_t axis);
+
+  LinkState link_state() const { return session_->link_state(); }
+  std::string link_reason() const;
+  // Newest sample of every registered axis (the Pack's knowledge of motor activity, CT-56).
+  std::map<uint8_t, AxisSample> samples() const;
+  SessionCounters session_counters() const { return session_->counters(); }
+  PackCounters counters() const;
+  const std::string& key() const { return key_; }
+  const TrinamicConfig& config() const { return config_; }
+  std::string name() const { return session_->name(); }
+  uint8_t address() const { return config_.address; }
+
+ private:
+  struct Axis {
+    PackListener* listener = nullptr;
+    std::chrono::milliseconds period{20};
+    SessionClock::time_point next{};
+    bool needs_apply = true;
+    bool velocity_turn = false;
+    int vact = 0;
+    std::optional<AxisSample> last;
+  };
+  struct Event {
+    enum Kind { kLink, kDuplicate } kind;
+    LinkState state = LinkState::kUnknown;
+    std::string text;
+  };
+
+  Pack(TrinamicConfig config, std::string key, std::shared_ptr<ControllerSession> session);
+  void Run();
+  void PollAxis(uint8_t axis);
+  void ProbeReset();
+  // Sends pending (re-)apply words; notifies OnControllerReset after a reset. Needs cb_mu_.
+  absl::Status EnsureApplied();
+  void DispatchEvents();
+
+  // SessionObserver (session I/O lock held: record and wake the thread only).
+  void OnLinkChange(LinkState state, const std::string& reason) noexcept override;
+  void OnControllerReset(uint8_t address) noexcept override;
+  void OnSessionEvent(SessionEvent event, const std::string& detail) noexcept override;
+
+  const TrinamicConfig config_;
+  const std::string key_;
+  std::shared_ptr<ControllerSession> session_;
+  int observer_id_ = 0;
+
+  // Held while a listener callback runs and around the (re-)apply path; recursive because
+  // callbacks may send words (Pack::Send → EnsureApplied) from the poll thread.
+  std::recursive_mutex cb_mu_;
+
+  mutable std::mutex mu_;  // below
+  std::condition_variable cv_;
+  std::map<uint8_t, Axis> axes_;
+  bool stop_ = false;
+  bool reset_pending_ = false;
+  bool poke_ = false;  // PollSoon
+  std::vector<Event> events_;
+  std::string link_reason_;
+  SessionClock::time_point next_reset_probe_{};
+  PackCounters counters_;
+  std::thread thread_;
+};
+
+}  // namespace drivegw::trinamic
