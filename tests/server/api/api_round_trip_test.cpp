@@ -1,0 +1,232 @@
+// The new Trinamic-era API through both front ends on the real stack: REST router -> in-process
+// gRPC -> DriveServiceGrpc -> DriveServiceCore -> FakeDrive, and a gRPC client over TCP.
+// Covers POST /v1/drives:moveCoordinated (handles in request order, field-named refusals,
+// UNIMPLEMENTED for LinMot) and a trinamic native command with base64 `params`/`reply`.
+#include <gmock/gmock.h>
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <variant>
+
+#include "drivegw/v1/drive.grpc.pb.h"
+#include "server/core/drive_service.h"
+#include "server/grpc/drive_service_grpc.h"
+#include "server/grpc/worker_pool.h"
+#include "server/rest/router.h"
+#include "tests/server/core/core_test_support.h"
+#include "tests/server/rest/recording_sink.h"
+
+namespace drivegw::server {
+namespace {
+
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+using json = nlohmann::json;
+using rest::HttpResponse;
+using test_support::FakeDrive;
+using test_support::FakeFleet;
+
+class ApiRoundTripTest : public ::testing::Test {
+ protected:
+  ApiRoundTripTest()
+      : x_(fleet_.Add("feeder-x", "trinamic", true)),
+        y_(fleet_.Add("feeder-y", "trinamic", true)),
+        lin1_(fleet_.Add("lin1", "linmot", false)),
+        lin2_(fleet_.Add("lin2", "linmot", false)),
+        core_(fleet_.drives(), nullptr),
+        pool_(2),
+        service_(core_, pool_) {}
+
+  void SetUp() override {
+    grpc::ServerBuilder builder;
+    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port_);
+    builder.RegisterService(&service_);
+    server_ = builder.BuildAndStart();
+    ASSERT_NE(server_, nullptr);
+    rest::RouterOptions o;
+    o.channel = server_->InProcessChannel(grpc::ChannelArguments());
+    o.openapi_json = "{}";
+    auto router = rest::Router::Create(std::move(o));
+    ASSERT_TRUE(router.ok()) << router.status();
+    router_ = *std::move(router);
+  }
+
+  void TearDown() override {
+    router_.reset();
+    if (server_) {
+      server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
+      server_->Wait();
+    }
+    pool_.Shutdown();
+  }
+
+  HttpResponse Post(std::string target, std::string body) {
+    auto sink = std::make_shared<rest::test_support::RecordingSink>();
+    router_->Handle({"POST", std::move(target), std::move(body), "10.0.0.7:5555"}, sink);
+    return sink->Response();
+  }
+
+  static json Json(const HttpResponse& r) {
+    auto j = json::parse(r.body, nullptr, /*allow_exceptions=*/false);
+    EXPECT_FALSE(j.is_discarded()) << r.body;
+    return j;
+  }
+
+  std::unique_ptr<v1::DriveService::Stub> GrpcStub() {
+    return v1::DriveService::NewStub(grpc::CreateChannel("127.0.0.1:" + std::to_string(port_),
+                                                         grpc::InsecureChannelCredentials()));
+  }
+
+  FakeFleet fleet_;
+  FakeDrive& x_;
+  FakeDrive& y_;
+  FakeDrive& lin1_;
+  FakeDrive& lin2_;
+  DriveServiceCore core_;
+  WorkerPool pool_;
+  DriveServiceGrpc service_;
+  int port_ = 0;
+  std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<rest::Router> router_;
+};
+
+TEST_F(ApiRoundTripTest, RestMoveCoordinated_Ok_HandlesInRequestOrder) {
+  const auto r = Post("/v1/drives:moveCoordinated", R"({
+      "targets": [{"name": "drives/feeder-y", "position_mm": 20},
+                  {"name": "drives/feeder-x", "position_mm": 12.5}],
+      "velocity_mm_s": 50, "acceleration_mm_s2": 500})");
+  ASSERT_EQ(r.status, 200) << r.body;
+  const auto j = Json(r);
+  ASSERT_EQ(j["commands"].size(), 2u);
+  EXPECT_EQ(j["commands"][0]["name"], "drives/feeder-y/commands/100");
+  EXPECT_EQ(j["commands"][1]["name"], "drives/feeder-x/commands/101");
+  EXPECT_EQ(j["commands"][0]["kind"], "MoveCoordinated");
+  EXPECT_EQ(j["commands"][0]["state"], "ACTIVE");
+  auto call = y_.coordinated();
+  ASSERT_TRUE(call.has_value());
+  EXPECT_THAT(call->group, ElementsAre("feeder-y", "feeder-x"));
+  EXPECT_THAT(call->move.positions_mm, ElementsAre(20, 12.5));
+  EXPECT_EQ(call->move.velocity_mm_s, 50);
+}
+
+TEST_F(ApiRoundTripTest, RestMoveCoordinated_PositionBeyondAxis_400WithFieldViolation) {
+  const auto r = Post("/v1/drives:moveCoordinated", R"({
+      "targets": [{"name": "drives/feeder-x", "position_mm": 10},
+                  {"name": "drives/feeder-y", "position_mm": 150}],
+      "velocity_mm_s": 50, "acceleration_mm_s2": 500})");
+  EXPECT_EQ(r.status, 400) << r.body;  // OUT_OF_RANGE
+  const auto j = Json(r);
+  ASSERT_EQ(j["details"].size(), 1u);
+  EXPECT_EQ(j["details"][0]["@type"], "type.googleapis.com/google.rpc.BadRequest");
+  EXPECT_EQ(j["details"][0]["field_violations"][0]["field"],
+            "move_coordinated.targets[1].position_mm");
+  EXPECT_THAT(j["message"].get<std::string>(), HasSubstr("exceeds axis max_mm 100"));
+  EXPECT_FALSE(x_.coordinated().has_value());
+}
+
+TEST_F(ApiRoundTripTest, RestMoveCoordinated_Duplicate_400NamingTheIndex) {
+  const auto r = Post("/v1/drives:moveCoordinated", R"({
+      "targets": [{"name": "drives/feeder-x", "position_mm": 10},
+                  {"name": "feeder-x", "position_mm": 20}],
+      "velocity_mm_s": 50, "acceleration_mm_s2": 500})");
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_EQ(Json(r)["details"][0]["field_violations"][0]["field"],
+            "move_coordinated.targets[1].name");
+}
+
+TEST_F(ApiRoundTripTest, RestMoveCoordinated_LinMot_501Unimplemented) {
+  const auto r = Post("/v1/drives:moveCoordinated", R"({
+      "targets": [{"name": "drives/lin1", "position_mm": 10}, {"name": "drives/lin2", "position_mm": 20}],
+      "velocity_mm_s": 50, "acceleration_mm_s2": 500})");
+  EXPECT_EQ(r.status, 501) << r.body;
+  const auto j = Json(r);
+  EXPECT_EQ(j["code"], 12);  // google.rpc.Code UNIMPLEMENTED
+  EXPECT_THAT(j["message"].get<std::string>(),
+              HasSubstr("no coordinated (interpolated) multi-axis move"));
+}
+
+TEST_F(ApiRoundTripTest, RestMoveCoordinated_UnknownJsonField_400) {
+  // Field names follow MoveAbsoluteRequest (position_mm), not "position".
+  const auto r = Post("/v1/drives:moveCoordinated", R"({
+      "targets": [{"name": "drives/feeder-x", "position": 10}, {"name": "drives/feeder-y", "position": 20}],
+      "velocity_mm_s": 50, "acceleration_mm_s2": 500})");
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_FALSE(x_.coordinated().has_value());
+}
+
+TEST_F(ApiRoundTripTest, RestTrinamicNative_Base64ParamsIn_Base64ReplyOut) {
+  NativeReply reply;
+  reply.data = {0x20, 0x02, 0x2E, 0xFB, 0xFF, 0xFF, 0x00, 0x00};  // §6.3: motor 2 at -1234
+  x_.SetNativeReply(reply);
+  // $20 query position: P0 = motor 2, P1 = RA F0 -> bytes 02 F0 00 00 00 00 00 = "AvAAAAAAAA==".
+  const auto r = Post("/v1/drives/feeder-x:sendNativeCommand",
+                      R"({"trinamic": {"opcode": 32, "params": "AvAAAAAAAA=="}})");
+  ASSERT_EQ(r.status, 200) << r.body;
+  auto sent = x_.native();
+  ASSERT_TRUE(sent.has_value());
+  const auto* req = std::get_if<TrinamicRequest>(&*sent);
+  ASSERT_NE(req, nullptr);
+  EXPECT_EQ(req->opcode, 0x20);
+  EXPECT_THAT(req->params, ElementsAre(0x02, 0xF0, 0, 0, 0, 0, 0));
+  const auto j = Json(r);
+  EXPECT_EQ(j["name"], "drives/feeder-x");
+  EXPECT_EQ(j["reply"], "IAIu+///AAA=");  // base64 of 20 02 2E FB FF FF 00 00
+}
+
+TEST_F(ApiRoundTripTest, RestTrinamicNative_ShortParams_400NamingTrinamicParams) {
+  const auto r = Post("/v1/drives/feeder-x:sendNativeCommand",
+                      R"({"trinamic": {"opcode": 32, "params": "AvA="}})");
+  EXPECT_EQ(r.status, 400) << r.body;
+  const auto j = Json(r);
+  EXPECT_EQ(j["details"][0]["field_violations"][0]["field"], "trinamic.params");
+  EXPECT_THAT(j["message"].get<std::string>(), HasSubstr("2 bytes; exactly 7 are required"));
+  EXPECT_FALSE(x_.native().has_value());
+}
+
+TEST_F(ApiRoundTripTest, RestTrinamicTunnel_Base64Data) {
+  const auto r =
+      Post("/v1/drives/feeder-x:sendNativeCommand", R"({"trinamic_tunnel": {"data": "QVQN"}})");
+  ASSERT_EQ(r.status, 200) << r.body;
+  auto sent = x_.native();
+  ASSERT_TRUE(sent.has_value());
+  const auto* t = std::get_if<TrinamicTunnelRequest>(&*sent);
+  ASSERT_NE(t, nullptr);
+  EXPECT_THAT(t->data, ElementsAre('A', 'T', '\r'));
+  EXPECT_EQ(Json(r)["reply"], "");
+}
+
+TEST_F(ApiRoundTripTest, GrpcMoveCoordinated_OkAndUnimplemented) {
+  auto stub = GrpcStub();
+  v1::MoveCoordinatedRequest req;
+  auto* a = req.add_targets();
+  a->set_name("drives/feeder-x");
+  a->set_position_mm(5);
+  auto* b = req.add_targets();
+  b->set_name("drives/feeder-y");
+  b->set_position_mm(6);
+  req.set_velocity_mm_s(10);
+  req.set_acceleration_mm_s2(100);
+  {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    v1::MoveCoordinatedResponse resp;
+    grpc::Status s = stub->MoveCoordinated(&ctx, req, &resp);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    ASSERT_EQ(resp.commands_size(), 2);
+    EXPECT_EQ(resp.commands(0).name(), "drives/feeder-x/commands/100");
+    EXPECT_EQ(resp.commands(1).name(), "drives/feeder-y/commands/101");
+  }
+  a->set_name("drives/lin1");
+  b->set_name("drives/lin2");
+  {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    v1::MoveCoordinatedResponse resp;
+    grpc::Status s = stub->MoveCoordinated(&ctx, req, &resp);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::UNIMPLEMENTED) << s.error_message();
+  }
+}
+
+}  // namespace
+}  // namespace drivegw::server
