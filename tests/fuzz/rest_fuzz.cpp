@@ -14,7 +14,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const PathTemplate kApi[] = {
       *PathTemplate::Parse("/v1/drives"),
       *PathTemplate::Parse("/v1/drives:watch"),
+      // A literal custom verb on the collection, next to the {name=drives/*} verbs below.
+      *PathTemplate::Parse("/v1/drives:moveCoordinated"),
       *PathTemplate::Parse("/v1/{name=drives/*}:moveAbsolute"),
+      *PathTemplate::Parse("/v1/{name=drives/*}:sendNativeCommand"),
       *PathTemplate::Parse("/v1/{name=drives/*/commands/*}"),
       *PathTemplate::Parse("/v1/{name=drives/*}/parameters/{parameter_id}:write"),
       *PathTemplate::Parse("/static/{path=**}"),
