@@ -15,11 +15,13 @@
 #include "adapters/core/status.h"
 #include "adapters/linmot/devicenet/factory.h"
 #include "adapters/linmot/linudp/factory.h"
+#include "adapters/trinamic/factory.h"
 #include "server/grpc/drive_service_grpc.h"
 #include "server/grpc/worker_pool.h"
 #include "server/rest/server.h"
 #include "sim/linmot/server.h"
 #include "sim/linmot_devicenet/server.h"
+#include "sim/trinamic/server.h"
 #include "storage/audit_log.h"
 #include "storage/config_repo.h"
 #include "storage/db.h"
@@ -36,8 +38,30 @@ DriveRegistry MakeRegistry() {
   DriveRegistry r;
   r.Register(linmot::linudp::kFamilyName, linmot::linudp::CreateLinMotUdpDrive);
   r.Register(linmot::devicenet::kFamilyName, linmot::devicenet::CreateLinMotDnDrive);
+  r.Register(trinamic::kFamilyName, trinamic::CreateTrinamicDrive);
   return r;
 }
+
+// Demo: one simulated SIXpack at address 1 with R8 replies (the simulator's default, G-01) on a
+// pty whose symlink lives in the data dir, so every gateway instance has its own and a link left
+// by a killed run is replaced (PseudoTerminal::Open; decision 406). Its own SteadyClock: the pty
+// server advances the controller on real bytes, never on a test's manual clock.
+absl::StatusOr<std::unique_ptr<sim::trinamic::TrinamicServer>> StartTrinamicDemo(
+    const std::string& pty_path) {
+  sim::trinamic::ServerOptions so;
+  so.controller.address = 1;
+  so.controller.axes = 6;
+  so.controller.framing = sim::trinamic::ReplyFraming::kR8;
+  so.pty_path = pty_path;
+  auto server = sim::trinamic::TrinamicServer::Start(so, SteadyClock::Instance());
+  if (!server.ok()) {
+    return absl::Status(server.status().code(),
+                        absl::StrCat("demo drives 'feeder-x'/'feeder-y' simulator: ",
+                                     server.status().message()));
+  }
+  return server;
+}
+
 }  // namespace
 
 struct Gateway::Impl {
@@ -46,6 +70,7 @@ struct Gateway::Impl {
   std::unique_ptr<storage::AuditLog> audit;
   std::map<std::string, std::unique_ptr<sim::linmot::LinMotServer>> sims;
   std::map<std::string, std::unique_ptr<sim::linmot_devicenet::LinMotDnServer>> dn_sims;
+  std::unique_ptr<sim::trinamic::TrinamicServer> trinamic_sim;
   std::vector<std::shared_ptr<Drive>> drives;
   std::unique_ptr<DriveServiceCore> core;
   std::unique_ptr<WorkerPool> pool;
@@ -131,6 +156,19 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
     }
     impl->dn_sims[dn.name] = std::move(*dn_server);
     drive_configs.push_back(std::move(dn));
+
+    // Two axes of one simulated Trinamic SIXpack on a serial line (issue 4).
+    // Absolute, so the link the drive opens does not depend on the working directory.
+    const std::string pty_path =
+        (std::filesystem::absolute(cfg.data_dir, ec) / "trinamic-demo.pty").string();
+    if (ec) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("data_dir: cannot resolve '", cfg.data_dir, "': ", ec.message()));
+    }
+    DGW_ASSIGN_OR_RETURN(impl->trinamic_sim, StartTrinamicDemo(pty_path));
+    for (DriveConfig& feeder : config::DemoTrinamicDrives(pty_path)) {
+      drive_configs.push_back(std::move(feeder));
+    }
   }
 
   // One configuration snapshot per start, so the audit trail knows what was running.
@@ -199,6 +237,8 @@ sim::linmot_devicenet::LinMotDnServer* Gateway::demo_devicenet_simulator(const s
   return it == impl_->dn_sims.end() ? nullptr : it->second.get();
 }
 
+sim::trinamic::TrinamicServer* Gateway::demo_trinamic_simulator() const { return impl_->trinamic_sim.get(); }
+
 void Gateway::Stop() {
   if (!impl_ || impl_->stopped) return;
   impl_->stopped = true;
@@ -209,6 +249,7 @@ void Gateway::Stop() {
   for (auto& d : impl_->drives) d->Deactivate();
   for (auto& [name, sim] : impl_->sims) sim->Stop();
   for (auto& [name, sim] : impl_->dn_sims) sim->Stop();
+  if (impl_->trinamic_sim) impl_->trinamic_sim->Stop();
   log::Info("gateway_stopped");
 }
 

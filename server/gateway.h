@@ -18,6 +18,9 @@ class LinMotServer;
 namespace drivegw::sim::linmot_devicenet {
 class LinMotDnServer;
 }
+namespace drivegw::sim::trinamic {
+class TrinamicServer;
+}
 
 namespace drivegw::server {
 
@@ -50,6 +53,9 @@ class Gateway {
   // injection in tests and demos.
   sim::linmot::LinMotServer* demo_simulator(const std::string& drive) const;
   sim::linmot_devicenet::LinMotDnServer* demo_devicenet_simulator(const std::string& drive) const;
+  // The simulated SIXpack (address 1) behind the demo drives feeder-x and feeder-y, on a pty
+  // linked at `<data_dir>/trinamic-demo.pty` (decision 406); nullptr outside demo mode.
+  sim::trinamic::TrinamicServer* demo_trinamic_simulator() const;
 
   // Stops servers, drives and simulators; idempotent. The destructor calls it.
   void Stop();

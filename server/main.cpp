@@ -14,7 +14,9 @@ void Usage() {
   std::fprintf(stderr,
                "usage: drivegw [--config FILE]\n"
                "  Without --config (or with a config that has no `drives:`), drivegw starts its\n"
-               "  embedded demo: simulated LinMot drives on loopback UDP. See docs/config.md.\n");
+               "  embedded demo: simulated LinMot drives on loopback UDP, a LinMot DeviceNet\n"
+               "  drive on the user-space CAN bus and two axes of a Trinamic SIXpack on a pty.\n"
+               "  See docs/config.md.\n");
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "adapters/transport/serial_port.h"
+#include "adapters/trinamic/codec.h"
 #include "adapters/trinamic/parameters.h"
 #include "server/config/can_config.h"
 
@@ -39,6 +40,13 @@ std::string Lower(std::string_view s) {
   return out;
 }
 
+// "serial.baud: 12345 is not a supported rate (...)" -> the reason; the caller names our path.
+std::string AfterField(const absl::Status& status) {
+  const std::string message(status.message());
+  const size_t colon = message.find(": ");
+  return colon == std::string::npos ? message : message.substr(colon + 2);
+}
+
 // serial: {device, baud, rs485, turnaround_ms} (§2.1, §2.5).
 void ParseSerial(const Section& t, SerialLineConfig& out) {
   const YAML::Node node = *t.Get("serial");
@@ -52,12 +60,7 @@ void ParseSerial(const Section& t, SerialLineConfig& out) {
   if (s.Int("baud", 1, std::numeric_limits<int>::max(), v)) {
     if (absl::Status st = transport::ValidateBaud(static_cast<int>(v)); !st.ok()) {
       // "serial.baud: 12345 is not a supported rate (...)": keep the reason, name our path.
-      const std::string message(st.message());
-      std::string_view what = message;
-      if (const size_t colon = what.find(": "); colon != std::string_view::npos) {
-        what.remove_prefix(colon + 2);
-      }
-      s.errors().Add(s.Child("baud"), what, *s.Get("baud"));
+      s.errors().Add(s.Child("baud"), AfterField(st), *s.Get("baud"));
     } else {
       out.baud = static_cast<int>(v);
     }
@@ -223,7 +226,10 @@ bool ParseTrinamic(const Section& drive, const AxisConfig& axis, TrinamicConfig&
   // for reset noise (decision 1052), so 1..255 on both.
   if (s.Int("response_address", kMinAddress, kMaxAddress, v)) {
     out.response_address = static_cast<uint8_t>(v);
-    if (out.response_address == out.address) {
+    if (absl::Status st = trinamic::ValidateResponseAddress(out.response_address); !st.ok()) {
+      // A reply opcode as RA would make R8 and R9 replies indistinguishable (decision 1011).
+      s.errors().Add(s.Child("response_address"), AfterField(st), *s.Get("response_address"));
+    } else if (out.response_address == out.address) {
       errors.Add(s.Child("response_address"),
                  absl::StrCat(v, " equals address; replies must go to another address (CT-50)"),
                  *s.Get("response_address"));

@@ -1,5 +1,6 @@
 // End to end over real sockets: the demo gateway (embedded simulated LinMot drives on loopback
-// UDP, SQLite file) driven through gRPC and through REST.
+// UDP, a DeviceNet drive on the user-space CAN bus, a Trinamic SIXpack on a pty, SQLite file)
+// driven through gRPC and through REST.
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
@@ -7,6 +8,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <future>
 #include <random>
 #include <thread>
@@ -30,6 +32,16 @@ class GatewayE2eTest : public ::testing::Test {
     char tmpl[] = "/tmp/drivegw-e2e-XXXXXX";
     ASSERT_NE(::mkdtemp(tmpl), nullptr);
     data_dir_ = tmpl;
+    std::random_device rd;
+    can_port_ = static_cast<uint16_t>(20000 + rd() % 20000);
+    auto gw = Gateway::Start(Options());
+    ASSERT_TRUE(gw.ok()) << gw.status();
+    gw_ = std::move(*gw);
+    channel_ = grpc::CreateChannel("127.0.0.1:" + std::to_string(gw_->grpc_port()),
+                                   grpc::InsecureChannelCredentials());
+    stub_ = v1::DriveService::NewStub(channel_);
+  }
+  GatewayOptions Options() const {
     GatewayOptions o;
     o.config.listen.grpc = "127.0.0.1:0";
     o.config.listen.http = "127.0.0.1:0";
@@ -38,14 +50,8 @@ class GatewayE2eTest : public ::testing::Test {
     o.demo_first_port = 0;   // ephemeral simulator ports: ctest runs in parallel
     o.demo_master_port = 0;  // ephemeral master port; the simulators answer any source port
     // A CAN bus of this test's own: parallel ctest runs must not share one.
-    std::random_device rd;
-    o.demo_can_port = static_cast<uint16_t>(20000 + rd() % 20000);
-    auto gw = Gateway::Start(std::move(o));
-    ASSERT_TRUE(gw.ok()) << gw.status();
-    gw_ = std::move(*gw);
-    channel_ = grpc::CreateChannel("127.0.0.1:" + std::to_string(gw_->grpc_port()),
-                                   grpc::InsecureChannelCredentials());
-    stub_ = v1::DriveService::NewStub(channel_);
+    o.demo_can_port = can_port_;
+    return o;
   }
   void TearDown() override {
     gw_.reset();
@@ -71,6 +77,7 @@ class GatewayE2eTest : public ::testing::Test {
   int http() const { return gw_->http_port(); }
 
   std::string data_dir_;
+  uint16_t can_port_ = 0;
   std::unique_ptr<Gateway> gw_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::DriveService::Stub> stub_;
@@ -81,12 +88,16 @@ TEST_F(GatewayE2eTest, ListDrives_Demo_ListsEveryFamilyOnline) {
   grpc::ClientContext ctx;
   v1::ListDrivesResponse resp;
   ASSERT_TRUE(stub_->ListDrives(&ctx, v1::ListDrivesRequest(), &resp).ok());
-  ASSERT_EQ(resp.drives_size(), 3);
+  ASSERT_EQ(resp.drives_size(), 5);
   EXPECT_EQ(resp.drives(0).name(), "drives/x1");
   EXPECT_EQ(resp.drives(1).name(), "drives/x2");
   EXPECT_EQ(resp.drives(2).name(), "drives/d1");
+  EXPECT_EQ(resp.drives(3).name(), "drives/feeder-x");
+  EXPECT_EQ(resp.drives(4).name(), "drives/feeder-y");
   EXPECT_EQ(resp.drives(0).family(), "linmot");
   EXPECT_EQ(resp.drives(2).family(), "linmot-devicenet");
+  EXPECT_EQ(resp.drives(3).family(), "trinamic");
+  EXPECT_EQ(resp.drives(4).family(), "trinamic");
   EXPECT_NE(resp.drives(0).status().state(), v1::OFFLINE);
 }
 
@@ -260,6 +271,55 @@ TEST_F(GatewayE2eTest, Rest_DeviceNetDemoDrive_EnablesAndMoves) {
   }, std::chrono::seconds(15));
   EXPECT_EQ(d.status().last_command().state(), v1::DONE) << d.ShortDebugString();
   EXPECT_NEAR(d.status().position_mm(), 40, 0.05);
+}
+
+TEST_F(GatewayE2eTest, Rest_TrinamicDemoAxis_EnablesAndMovesTo10Mm) {
+  // Motor 0 of the simulated SIXpack behind the pty link in the data dir (issue 4).
+  ASSERT_NE(gw_->demo_trinamic_simulator(), nullptr);
+  EXPECT_TRUE(std::filesystem::is_symlink(std::filesystem::path(data_dir_) / "trinamic-demo.pty"));
+  const v1::Drive online = WaitFor("drives/feeder-x", [](const v1::Drive& d) {
+    return d.status().state() != v1::OFFLINE && d.status().state() != v1::DRIVE_STATE_UNSPECIFIED;
+  }, std::chrono::seconds(15));
+  ASSERT_NE(online.status().state(), v1::OFFLINE) << online.ShortDebugString();
+  auto en = HttpRequest(http(), "POST", "/v1/drives/feeder-x:enable", "");
+  ASSERT_EQ(en.status, 200) << en.body;
+  EXPECT_NE(en.body.find("\"DONE\""), std::string::npos) << en.body;
+  // 20 mm/s and 100 mm/s² are within the axis limits (40 mm/s, 190 mm/s²): about 0.7 s.
+  auto mv = HttpRequest(http(), "POST", "/v1/drives/feeder-x:moveAbsolute",
+                        R"({"position_mm": 10, "velocity_mm_s": 20, "acceleration_mm_s2": 100})");
+  ASSERT_EQ(mv.status, 200) << mv.body;
+  EXPECT_NE(mv.body.find("MoveAbsolute"), std::string::npos) << mv.body;
+  const v1::Drive d = WaitFor("drives/feeder-x", [](const v1::Drive& d) {
+    return d.status().last_command().kind() == "MoveAbsolute" && d.status().last_command().state() == v1::DONE;
+  }, std::chrono::seconds(15));
+  EXPECT_EQ(d.status().last_command().state(), v1::DONE) << d.ShortDebugString();
+  // 640 microsteps/mm: one microstep is 1/640 mm.
+  EXPECT_NEAR(d.status().position_mm(), 10.0, 1.0 / 640) << d.ShortDebugString();
+  // The other axis of the same controller did not move.
+  const v1::Drive y = WaitFor("drives/feeder-y", [](const v1::Drive& d) {
+    return d.status().state() != v1::OFFLINE && d.status().state() != v1::DRIVE_STATE_UNSPECIFIED;
+  });
+  EXPECT_NEAR(y.status().position_mm(), 0.0, 1.0 / 640) << y.ShortDebugString();
+}
+
+TEST_F(GatewayE2eTest, Demo_TrinamicPtyLink_StaleReplacedOtherFileRefused) {
+  const std::filesystem::path link = std::filesystem::path(data_dir_) / "trinamic-demo.pty";
+  const std::filesystem::path pts = std::filesystem::read_symlink(link);
+  gw_.reset();  // the link goes with the simulator's pty
+  EXPECT_FALSE(std::filesystem::is_symlink(link));
+  // A link left behind by a killed gateway points at a pty that no longer exists.
+  std::filesystem::create_symlink("/dev/pts/drivegw-e2e-gone", link);
+  auto again = Gateway::Start(Options());
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_NE(std::filesystem::read_symlink(link), "/dev/pts/drivegw-e2e-gone");
+  EXPECT_TRUE(std::filesystem::exists(std::filesystem::read_symlink(link))) << pts;
+  again->reset();
+  // Anything else at that path is not the gateway's to delete.
+  std::ofstream(link) << "not a pty";
+  auto refused = Gateway::Start(Options());
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("feeder-x"), std::string::npos) << refused.status();
+  EXPECT_NE(refused.status().message().find(link.string()), std::string::npos) << refused.status();
 }
 
 TEST_F(GatewayE2eTest, Rest_BadInput_ClearErrorsAndGatewayStaysUp) {

@@ -2,9 +2,15 @@
 // the rules between axes of one controller, and demo axes that the PACK defaults can drive.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <filesystem>
+#include <fstream>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
+#include "adapters/core/clock.h"
+#include "adapters/trinamic/factory.h"
 #include "adapters/trinamic/units.h"
 #include "server/config/config.h"
 
@@ -96,7 +102,7 @@ drives:
       axis: 2
       axes: 4
       microsteps_per_unit: 3200.5
-      response_address: 32
+      response_address: 200
       poll_ms: 25
       reply_timeout_ms: 80
       offline_after_misses: 4
@@ -118,7 +124,7 @@ drives:
   EXPECT_EQ(t.axis, 2);
   EXPECT_EQ(t.axes, 4);
   EXPECT_DOUBLE_EQ(t.microsteps_per_unit, 3200.5);
-  EXPECT_EQ(t.response_address, 32);
+  EXPECT_EQ(t.response_address, 200);
   EXPECT_EQ(t.poll_period, milliseconds(25));
   EXPECT_EQ(t.reply_timeout, milliseconds(80));
   EXPECT_EQ(t.offline_after_misses, 4);
@@ -157,6 +163,78 @@ TEST(TrinamicConfigTest, CanErrors_NamedUnderTrinamic) {
               HasSubstr("drives[0].trinamic.can: needs exactly one of socketcan, udp"));
   EXPECT_THAT(Message(With("serial: {device: /dev/ttyUSB0}", "can: {socketcan: {}}")),
               HasSubstr("drives[0].trinamic.can.socketcan.interface: required"));
+}
+
+// The two examples of docs/config.md "drives[i].trinamic", verbatim: the file loader accepts
+// them and so does the family factory (its cross-field parameter rules included).
+constexpr char kDocsSerial[] = R"(
+drives:
+  - name: feeder-x
+    family: trinamic
+    trinamic:
+      serial: {device: /dev/ttyUSB0, baud: 19200}      # rs485: true, turnaround_ms: 6 on RS-485
+      address: 1
+      axis: 0
+      microsteps_per_unit: 640          # 3200 microsteps/rev on a 5 mm lead screw
+      parameters:
+        "$13.vstart": 8                 # 8 x 64 = 512 >= the amax below (L556)
+        "$14.amax": 400
+        "$14.vmax": 300
+    axis: {min_mm: 0, max_mm: 200, max_velocity_mm_s: 20, max_acceleration_mm_s2: 240}
+  - name: feeder-y
+    family: trinamic
+    trinamic: {serial: {device: /dev/ttyUSB0}, address: 1, axis: 1, microsteps_per_unit: 640}
+    axis: {min_mm: 0, max_mm: 200, max_velocity_mm_s: 40, max_acceleration_mm_s2: 190}
+)";
+constexpr char kDocsCan[] = R"(
+drives:
+  - name: lift
+    family: trinamic
+    trinamic:
+      can: {udp: {group: 239.74.163.2, port: 43113}}
+      address: 2                        # commands on ID 0x010
+      response_address: 241             # replies on ID 0x788; one per controller on a bus (1053)
+      axis: 3
+      axes: 4                           # a QUADpack
+      microsteps_per_unit: 8.888889     # 3200 microsteps per 360° = per degree
+    axis: {kind: rotary, min_mm: 0, max_mm: 360, max_velocity_mm_s: 90, max_acceleration_mm_s2: 360}
+)";
+
+TEST(TrinamicConfigTest, DocsExamples_AcceptedByConfigAndFactory) {
+  for (const char* yaml : {kDocsSerial, kDocsCan}) {
+    auto cfg = ParseConfig(yaml);
+    ASSERT_TRUE(cfg.ok()) << cfg.status() << "\n" << yaml;
+    for (const DriveConfig& d : cfg->drives) {
+      auto drive = trinamic::CreateTrinamicDrive(d, SteadyClock::Instance());
+      EXPECT_TRUE(drive.ok()) << d.name << ": " << drive.status();
+    }
+  }
+  auto cfg = ParseConfig(kDocsSerial);
+  ASSERT_TRUE(cfg.ok());
+  using P = std::pair<std::string, int64_t>;
+  EXPECT_THAT(cfg->drives[0].trinamic->parameters,
+              ::testing::ElementsAre(P{"$13.vstart", 8}, P{"$14.amax", 400}, P{"$14.vmax", 300}));
+}
+
+TEST(TrinamicConfigTest, LoadConfigFile_ValidAndInvalidTrinamicFiles) {
+  std::string dir_template = "/tmp/dgw_trinamic_config_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template.data()), nullptr);
+  const std::filesystem::path dir = dir_template;
+  const std::string good = (dir / "good.yaml").string();
+  const std::string bad = (dir / "bad.yaml").string();
+  std::ofstream(good, std::ios::binary) << kDocsSerial;
+  std::ofstream(bad, std::ios::binary) << With("axis: 0", "axis: 7");
+  auto cfg = LoadConfigFile(good);
+  ASSERT_TRUE(cfg.ok()) << cfg.status();
+  EXPECT_EQ(cfg->drives.size(), 2u);
+  EXPECT_EQ(cfg->source_yaml, kDocsSerial);
+  auto err = LoadConfigFile(bad);
+  EXPECT_EQ(err.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(err.status().message(),
+              HasSubstr(bad + ": drives[0].trinamic.axis: 7 exceeds 5 (a SIXpack has motors "
+                              "0..5) (line 8, column 13)"));
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
 }
 
 // ---- messages of the trinamic mapping ----
@@ -274,6 +352,9 @@ TEST(TrinamicConfigTest, ResponseAddress_RangeAndNotOwnAddress) {
               HasSubstr("drives[0].trinamic.response_address: 0 is below 1"));
   EXPECT_THAT(Message(With("address: 1", "address: 1\n      response_address: 300")),
               HasSubstr("drives[0].trinamic.response_address: 300 exceeds 255"));
+  // 0x20 is the `$20` reply opcode: R8 and R9 replies would look alike (decision 1011).
+  EXPECT_THAT(Message(With("address: 1", "address: 1\n      response_address: 32")),
+              HasSubstr("drives[0].trinamic.response_address: 0x20 equals a reply opcode"));
   EXPECT_THAT(Message(With("address: 1", "address: 7\n      response_address: 7")),
               HasSubstr("drives[0].trinamic.response_address: 7 equals address; replies must go "
                         "to another address (CT-50)"));
@@ -371,9 +452,9 @@ TEST(TrinamicConfigTest, OneController_AgreesOnVariantSessionAndControllerParame
                               "microsteps_per_unit: 640}")),
               HasSubstr("drives[1].trinamic.axes: 4 differs from drives[0] (6) on the same "
                         "controller (address 1 on serial:/dev/ttyUSB0)"));
-  EXPECT_THAT(Message(TwoAxes("{serial: {device: /dev/ttyUSB0}, axis: 1, response_address: 32, "
+  EXPECT_THAT(Message(TwoAxes("{serial: {device: /dev/ttyUSB0}, axis: 1, response_address: 200, "
                               "microsteps_per_unit: 640}")),
-              HasSubstr("drives[1].trinamic.response_address: 32 differs from drives[0] (240)"));
+              HasSubstr("drives[1].trinamic.response_address: 200 differs from drives[0] (240)"));
   EXPECT_THAT(Message(TwoAxes("{serial: {device: /dev/ttyUSB0}, axis: 1, offline_after_misses: 9, "
                               "microsteps_per_unit: 640}")),
               HasSubstr("drives[1].trinamic.offline_after_misses: 9 differs from drives[0] (3)"));
@@ -438,6 +519,8 @@ TEST(TrinamicDemoDrivesTest, TwoFeederAxesReachableWithPackDefaults) {
     auto end = trinamic::MmToMicrosteps(d.axis.max_mm, 640);
     ASSERT_TRUE(end.ok()) << end.status();
     EXPECT_EQ(*end, 128000);
+    auto drive = trinamic::CreateTrinamicDrive(d, SteadyClock::Instance());
+    EXPECT_TRUE(drive.ok()) << d.name << ": " << drive.status();
   }
 }
 
