@@ -244,6 +244,7 @@ absl::Status Pack::Probe() {
 // Controller-scoped words go out once per (re-)apply, with the first axis (decision 1086).
 absl::Status Pack::EnsureApplied() {
   std::vector<std::pair<uint8_t, PackListener*>> todo;
+  std::vector<PackListener*> notify;
   bool reset = false;
   bool controller_sent = false;
   {
@@ -259,6 +260,7 @@ absl::Status Pack::EnsureApplied() {
                                   [](const auto& kv) { return !kv.second.needs_apply; });
     for (auto& [n, a] : axes_) {
       if (a.needs_apply) todo.emplace_back(n, a.listener);
+      if (reset && a.applied_once) notify.push_back(a.listener);
     }
   }
   for (auto& [n, listener] : todo) {
@@ -277,11 +279,14 @@ absl::Status Pack::EnsureApplied() {
     }
     controller_sent = true;
     std::lock_guard lock(mu_);
-    if (auto it = axes_.find(n); it != axes_.end()) it->second.needs_apply = false;
+    if (auto it = axes_.find(n); it != axes_.end()) {
+      it->second.needs_apply = false;
+      it->second.applied_once = true;
+    }
   }
-  if (reset) {
-    log::Warn("trinamic_reset", log::Fields().Add("pack", key_).Add("axes", todo.size()));
-    for (auto& [n, listener] : todo) listener->OnControllerReset();
+  if (reset && !notify.empty()) {
+    log::Warn("trinamic_reset", log::Fields().Add("pack", key_).Add("axes", notify.size()));
+    for (PackListener* listener : notify) listener->OnControllerReset();
   }
   return absl::OkStatus();
 }

@@ -109,6 +109,7 @@ class Pack final : private SessionObserver {
     std::chrono::milliseconds period{20};
     SessionClock::time_point next{};
     bool needs_apply = true;
+    bool applied_once = false;  // a reset before the first apply is the power-up, no news
     bool velocity_turn = false;
     int vact = 0;
     std::optional<AxisSample> last;

@@ -150,8 +150,22 @@ void TrinamicServer::SendLocked(const std::vector<uint8_t>& bytes) {
   if (pty_.Write(bytes).ok()) ++counters_.replies;
 }
 
+std::vector<std::vector<uint8_t>> TrinamicServer::words() const {
+  std::lock_guard lock(mu_);
+  return {trace_.begin(), trace_.end()};
+}
+
+void TrinamicServer::ClearWords() {
+  std::lock_guard lock(mu_);
+  trace_.clear();
+}
+
 void TrinamicServer::HandleLocked(Unit& unit, const drivegw::trinamic::Command& command,
                                   TimePoint now) {
+  if (auto bytes = drivegw::trinamic::EncodeCommand(command); bytes.ok()) {
+    trace_.push_back(*std::move(bytes));
+    if (trace_.size() > 100000) trace_.pop_front();  // bounded for long-running tools
+  }
   auto reply = unit.controller.Handle(command);
   if (unit.controller.reset_count() != unit.resets_seen) {
     // `$CC`: the RS-232 receives one `00` byte while the unit restarts (L228, L902, CT-47);

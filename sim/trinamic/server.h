@@ -63,6 +63,10 @@ class TrinamicServer {
   // Out-of-band break received at clock.Now(): every unit discards its partial word (L279). A pty
   // carries no break (§2.7, G-39), so tests and tools call this instead of tcsendbreak.
   void Break();
+  // Wire trace (tests, CT-01/CT-02): every word a unit executed, re-encoded as its 9 bytes, oldest
+  // first (bounded); ClearWords empties it.
+  std::vector<std::vector<uint8_t>> words() const;
+  void ClearWords();
 
  private:
   struct Unit {
@@ -96,6 +100,7 @@ class TrinamicServer {
   TimePoint advanced_to_;
   bool reset_done_ = false;
   ServerCounters counters_;
+  std::deque<std::vector<uint8_t>> trace_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };
