@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <random>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
@@ -235,6 +236,43 @@ TEST(TrinamicConfigTest, LoadConfigFile_ValidAndInvalidTrinamicFiles) {
                               "0..5) (line 8, column 13)"));
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
+}
+
+// Bit flips, deletions and duplications of the docs examples: ParseConfig answers every one
+// with a config or InvalidArgument (never a crash, throw or other code), the trinamic checks
+// included (config_fuzz's random bytes rarely form a trinamic section).
+TEST(TrinamicConfigTest, MutatedExamples_ConfigOrInvalidArgument) {
+  std::mt19937 rng(405);
+  int parsed = 0;
+  for (const char* base : {kDocsSerial, kDocsCan}) {
+    for (int i = 0; i < 1500; ++i) {
+      std::string text(base);
+      const int edits = 1 + static_cast<int>(rng() % 3);
+      for (int e = 0; e < edits && !text.empty(); ++e) {
+        const size_t at = rng() % text.size();
+        switch (rng() % 4) {
+          case 0:
+            text[at] = static_cast<char>(text[at] ^ (1 << (rng() % 7)));
+            break;
+          case 1:
+            text.erase(at, 1 + rng() % 8);
+            break;
+          case 2:
+            text.insert(at, text.substr(rng() % text.size(), 1 + rng() % 24));
+            break;
+          default:
+            text[at] = "0123456789:{},-[] x$"[rng() % 20];
+        }
+      }
+      auto cfg = ParseConfig(text);
+      if (cfg.ok()) {
+        ++parsed;
+      } else {
+        EXPECT_EQ(cfg.status().code(), absl::StatusCode::kInvalidArgument) << text;
+      }
+    }
+  }
+  EXPECT_GT(parsed, 0);  // some mutations keep a valid file (comments, values)
 }
 
 // ---- messages of the trinamic mapping ----
