@@ -253,8 +253,9 @@ void TrinamicDrive::OnSample(const AxisSample& sample) noexcept {
       tracker_.reset();
       abort_homing = true;
     }
-    for (const auto& [id, u] : updates) UpdateCommand(id, u.first, u.second);
+    // The snapshot first: a client woken by the command's end reads the sample that ended it.
     PublishLocked();
+    for (const auto& [id, u] : updates) UpdateCommand(id, u.first, u.second);
   }
   cv_.notify_all();
   if (abort_homing) (void)SendWord(Word(Opcode::kStartRotation, {axis_, 0}));
@@ -265,15 +266,17 @@ void TrinamicDrive::OnLink(LinkState state, const std::string& reason) noexcept 
     std::lock_guard lock(mu_);
     link_ = state;
     link_reason_ = reason;
+    std::optional<uint64_t> open;
     if (state != LinkState::kOnline) {
       sample_.reset();
-      if (tracker_) {
-        UpdateCommand(tracker_->id, CommandState::kError,
-                      absl::StrCat("drive '", name_, "': link lost: ", reason));
-        tracker_.reset();
-      }
+      if (tracker_) open = tracker_->id;
+      tracker_.reset();
     }
     PublishLocked();
+    if (open) {
+      UpdateCommand(*open, CommandState::kError,
+                    absl::StrCat("drive '", name_, "': link lost: ", reason));
+    }
   }
   cv_.notify_all();
 }
@@ -286,12 +289,12 @@ void TrinamicDrive::OnControllerReset() noexcept {
     enabled_ = false;
     homed_ = false;
     reset_warning_ = true;
+    PublishLocked();
     if (tracker_) {
       UpdateCommand(tracker_->id, CommandState::kError,
                     "controller reset: every parameter back at its default (L853, G-24)");
       tracker_.reset();
     }
-    PublishLocked();
   }
   cv_.notify_all();
 }
@@ -302,11 +305,11 @@ void TrinamicDrive::OnDuplicateAddress(const std::string& detail) noexcept {
     duplicate_fault_ = true;
     duplicate_detail_ = detail;
     duplicate_seen_ = SessionClock::now();
+    PublishLocked();
     if (tracker_) {
       UpdateCommand(tracker_->id, CommandState::kError, detail);
       tracker_.reset();
     }
-    PublishLocked();
   }
   cv_.notify_all();
 }

@@ -216,7 +216,7 @@ TEST_F(TrinamicDriveTest, EnableMoveAbsolute_DoneAtExactTarget_CurrentsConfigure
   EXPECT_EQ(WaitFinal(d, r->id).state, CommandState::kDone);
   EXPECT_EQ(SimPosition(0), 3001);
   const DriveStatus s = d->GetStatus();
-  EXPECT_DOUBLE_EQ(s.position_mm, 3001);
+  EXPECT_DOUBLE_EQ(s.position_mm, 3001) << ::testing::PrintToString(NonQueries(server_->words()));
   EXPECT_TRUE(s.in_target);
   EXPECT_EQ(s.state, DriveState::kEnabled);
   // vmax/amax of the move went out as `$14` (20000 µsteps/s = 393, 100000 µsteps/s² = 252).
