@@ -23,10 +23,10 @@
 #include "adapters/linmot/mc/motion_command.h"
 #include "adapters/transport/endpoint.h"
 #include "sim/linmot/server.h"
-#include "sim/trinamic/can_server.h"
-#include "sim/trinamic/server.h"
 #include "sim/linmot_devicenet/cli.h"
 #include "sim/linmot_devicenet/server.h"
+#include "sim/trinamic/can_server.h"
+#include "sim/trinamic/server.h"
 
 namespace {
 
@@ -38,7 +38,8 @@ constexpr int kUsageError = 2;
 
 constexpr const char* kUsage = R"(usage: drivegw-sim linmot [flags]
        drivegw-sim linmot-devicenet [flags]   (drivegw-sim linmot-devicenet --help)
-       drivegw-sim trinamic --pty PATH [--address N] [--axes 6|4] [--framing r8|r9]
+       drivegw-sim trinamic --pty PATH | --can SPEC [--pty PATH] [trinamic flags]
+                            (drivegw-sim trinamic --help)
 
 Simulated LinMot drive(s) speaking LinUDP V2 on real UDP sockets (linmot-linudp.md, linmot-mc.md).
 
@@ -322,19 +323,48 @@ int RunLinMotDeviceNet(int argc, char** argv) {
   return 0;
 }
 
-// `drivegw-sim trinamic --pty PATH [--address N] [--axes 6|4] [--framing r8|r9]`: one SIXpack/QUADpack
-// on a pseudo-terminal whose slave is symlinked at PATH (issue 4; the CAN server is still to do).
+constexpr const char* kTrinamicUsage =
+    R"(usage: drivegw-sim trinamic --pty PATH | --can udp:GROUP:PORT|socketcan:IFACE [--pty PATH]
+                            [flags]
+
+A simulated Trinamic SIXpack/QUADpack (trinamic-sixpack.md). With --pty only: serial control on
+a pseudo-terminal whose slave is symlinked at PATH. With --can: the PACK on a CAN bus (~2 ms per
+queued command, at most 16 queued); adding --pty makes PATH its RS-232 port, which takes serial
+commands until the first CAN instruction and is the transparent tunnel afterwards.
+
+flags:
+  --address N          unit address 1..255 (default 1)
+  --axes 6|4           6 = SIXpack, 4 = QUADpack (default 6)
+  --framing r8|r9      serial reply framing (default r8)
+  --second-address N   serial only: a second PACK with address N on the same line
+  --supply-volts V     supply voltage 0..60 (default 24; below 13 V is undervoltage)
+  --can-jumpers 0..3   CAN bit-rate jumpers JP1 (bit 0), JP2 (bit 1) as read by $30 (default 0)
+  --no-turnaround      serial only: reply at once instead of after the $40 switchover time
+  --check-baud         serial only: ignore bytes while the peer's pty speed differs from $40's
+)";
+
+// `drivegw-sim trinamic`: one SIXpack/QUADpack (or two on one serial line) on a pty, on a CAN bus,
+// or on a CAN bus with its RS-232 port on a pty (issue 4; decisions 1037-1045).
 int RunTrinamic(int argc, char** argv) {
   namespace tsim = drivegw::sim::trinamic;
   tsim::ServerOptions o;
+  o.turnaround = true;  // a real PACK answers after its switchover time (L283, decision 1040)
   std::optional<drivegw::CanBusConfig> can;
+  std::optional<uint8_t> second_address;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "trinamic") continue;
     if (arg == "--help" || arg == "-h") {
-      std::cout << "usage: drivegw-sim trinamic --pty PATH | --can udp:GROUP:PORT|socketcan:IFACE "
-                   "[--address 1..255] [--axes 6|4] [--framing r8|r9]\n";
+      std::cout << kTrinamicUsage;
       return 0;
+    }
+    if (arg == "--no-turnaround") {
+      o.turnaround = false;
+      continue;
+    }
+    if (arg == "--check-baud") {
+      o.check_peer_baud = true;
+      continue;
     }
     if (i + 1 >= argc) UsageError(absl::StrCat(arg, ": missing value"));
     const std::string value = argv[++i];
@@ -357,13 +387,29 @@ int RunTrinamic(int argc, char** argv) {
     } else if (arg == "--axes") {
       o.controller.axes = static_cast<int>(ParseInt(arg, value, 4, 6));
       if (o.controller.axes == 5) UsageError("--axes: 5 is not 6 (SIXpack) or 4 (QUADpack)");
+    } else if (arg == "--second-address") {
+      second_address = static_cast<uint8_t>(ParseInt(arg, value, 1, 255));
+    } else if (arg == "--supply-volts") {
+      o.controller.supply_volts = ParseDouble(arg, value);
+      if (o.controller.supply_volts < 0 || o.controller.supply_volts > 60) {
+        UsageError(absl::StrCat("--supply-volts: ", value, " is outside 0..60"));
+      }
+    } else if (arg == "--can-jumpers") {
+      const int64_t j = ParseInt(arg, value, 0, 3);
+      o.controller.jumper1 = (j & 1) != 0;
+      o.controller.jumper2 = (j & 2) != 0;
     } else {
       UsageError(absl::StrCat("unknown flag '", arg, "'"));
     }
   }
-  if (!o.pty_path.empty() && can) UsageError("--can: give either --pty or --can, not both");
   if (o.pty_path.empty() && !can) {
     UsageError("--pty: missing (the path where the pty's symlink goes, or --can SPEC)");
+  }
+  if (second_address) {
+    if (can) UsageError("--second-address: only for a serial line (without --can)");
+    tsim::ControllerOptions second = o.controller;
+    second.address = *second_address;
+    o.more_units.push_back(second);
   }
   if (auto s = tsim::ValidateOptions(o); !s.ok()) UsageError(std::string(s.message()));
   const sigset_t signals = BlockSignals();
@@ -372,14 +418,24 @@ int RunTrinamic(int argc, char** argv) {
     co.controller = o.controller;
     co.can = *can;
     co.faults = o.faults;
+    co.command_time = std::chrono::milliseconds(2);  // ~2 ms per command (L303, decision 1041)
+    if (!o.pty_path.empty()) {
+      co.serial_endpoint = true;  // the RS-232 port (L291, L307-317, decision 1042)
+      co.serial_pty_path = o.pty_path;
+      co.serial_framing = o.controller.framing;
+    }
     auto server = tsim::TrinamicCanServer::Start(co, SteadyClock::Instance());
     if (!server.ok()) {
       std::cerr << "drivegw-sim: " << server.status().message() << "\n";
       return 1;
     }
-    std::cout << absl::StrFormat("trinamic address %d (%d axes) on %s (command id 0x%03X)\n",
+    std::cout << absl::StrFormat("trinamic address %d (%d axes) on %s (command id 0x%03X)",
                                  o.controller.address, o.controller.axes, (*server)->bus_name(),
                                  (*server)->command_id());
+    if (!o.pty_path.empty()) {
+      std::cout << absl::StrFormat(", RS-232 %s -> %s", o.pty_path, (*server)->serial_path());
+    }
+    std::cout << "\n";
     std::cout.flush();
     WaitForSignal(signals, 0, [] {});
     (*server)->Stop();
@@ -391,8 +447,10 @@ int RunTrinamic(int argc, char** argv) {
     std::cerr << "drivegw-sim: " << server.status().message() << "\n";
     return 1;
   }
-  std::cout << absl::StrFormat("trinamic address %d (%d axes) on %s -> %s\n", o.controller.address,
+  std::cout << absl::StrFormat("trinamic address %d (%d axes) on %s -> %s", o.controller.address,
                                o.controller.axes, o.pty_path, (*server)->slave_path());
+  if (second_address) std::cout << absl::StrFormat(", second address %d", *second_address);
+  std::cout << "\n";
   std::cout.flush();
   WaitForSignal(signals, 0, [] {});
   (*server)->Stop();

@@ -98,13 +98,16 @@ TEST(TrinamicPack, CT16_AllMotorActivityDelayed) {
       }
     }
     const TimePoint inactive_seen = line.clock.Now();  // the tick ended within the last 2 ms
-    Bytes reply;
-    const size_t n = line.framing() == ReplyFraming::kR9 ? 9 : 8;
-    while (reply.size() < n && line.clock.Now() - inactive_seen <= 16ms) {
-      const Bytes got = line.Drain(20ms);
-      reply.insert(reply.end(), got.begin(), got.end());
-      if (reply.size() < n) line.Advance(2ms);
+    // The server writes a due reply synchronously inside Advance (Settle), so its reply counter
+    // tells the clock time of sending; the bytes are then read with a generous real deadline.
+    const uint64_t sent_before = line.server->counters().replies;
+    while (line.server->counters().replies == sent_before &&
+           line.clock.Now() - inactive_seen <= 16ms) {
+      line.Advance(2ms);
     }
+    auto read = line.port->ReadExactly(line.framing() == ReplyFraming::kR9 ? 9 : 8, 2s);
+    ASSERT_TRUE(read.ok()) << read.status();
+    const Bytes reply = *read;
     EXPECT_EQ(reply, line.Wire({0x28, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}));
     EXPECT_LE(line.clock.Now() - inactive_seen, 16ms) << "10 ms + switchover 6 ms (L740, L283)";
   });

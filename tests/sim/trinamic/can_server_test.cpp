@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "adapters/transport/can_channel.h"
+#include "adapters/transport/serial_port.h"
 #include "adapters/trinamic/codec.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -223,6 +224,48 @@ TEST(TrinamicCanServer, Start_RejectsInvalidOptions) {
   auto s = TrinamicCanServer::Start(o, clock);
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+TEST(TrinamicCanServer, CommandQueue_SeventeenthCommandDropped) {
+  CanServerOptions o;
+  o.command_time = 2ms;  // L303
+  Fixture f(o);
+  ASSERT_TRUE(f.ok());
+  for (uint8_t k = 0; k < 17; ++k) f.Send(0x008, {0x27, 0x00, k, 0, 0, 0, 0, 0});
+  f.WaitCommands(17);
+  EXPECT_EQ(f.server->counters().queue_overflows, 1u);  // G-27, decision 1041
+  f.clock.Advance(40ms);
+  f.Send(0x008, {0x20, 0x00, 0xF0, 0, 0, 0, 0, 0});
+  f.WaitCommands(18);
+  f.clock.Advance(2ms);
+  auto r = f.Next();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->data[2], 15) << "the 16th command (value 15) was the last one executed";
+}
+
+TEST(TrinamicCanServer, SerialEndpoint_TunnelIgnoredBeforeTakeoverAndResetReturnsSerial) {
+  CanServerOptions o;
+  o.serial_endpoint = true;
+  Fixture f(o);
+  ASSERT_TRUE(f.ok());
+  transport::SerialConfig config;
+  config.device = f.server->serial_path();
+  config.baud = 19200;
+  auto serial = transport::SerialPort::Open(config);
+  ASSERT_TRUE(serial.ok()) << serial.status();
+  f.Send(0x009, {0x41});  // tunnel frame before any CAN instruction: dropped (decision 1042)
+  ASSERT_TRUE(WaitFor([&] { return f.server->counters().tunnel_dropped == 1; }));
+  EXPECT_FALSE(f.server->can_mode());
+  f.Send(0x008, {0xCC, 0, 0, 0, 0, 0, 0, 0});  // CAN instruction: takeover, then `$CC`
+  auto zero = serial->ReadExactly(1, 2s);
+  ASSERT_TRUE(zero.ok()) << zero.status();
+  EXPECT_THAT(*zero, ElementsAre(0x00));  // stray 00 on the RS-232 (L228, L902)
+  EXPECT_FALSE(f.server->can_mode()) << "serial control again after the reset (G-28)";
+  f.clock.Advance(1100ms);
+  ASSERT_TRUE(serial->Write(std::vector<uint8_t>{0x01, 0x43, 0xF0, 0, 0, 0, 0, 0, 0}).ok());
+  auto reply = serial->ReadExactly(8, 2s);
+  ASSERT_TRUE(reply.ok()) << reply.status();
+  EXPECT_THAT(*reply, ElementsAre(0x43, 0x94, 0x01, 0x1F, 0x34, 0x12, 0x00, 0x00));
 }
 
 }  // namespace

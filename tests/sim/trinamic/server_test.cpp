@@ -127,5 +127,89 @@ TEST(TrinamicServer, ValidateOptions_BadTimeout) {
   EXPECT_FALSE(ValidateOptions(o).ok());
 }
 
+TEST(TrinamicServer, MoreUnits_DuplicateAddressRejected) {
+  ServerOptions o;
+  ControllerOptions second;
+  second.address = 1;  // same as options.controller
+  o.more_units.push_back(second);
+  const absl::Status s = ValidateOptions(o);
+  EXPECT_FALSE(s.ok());
+  EXPECT_THAT(std::string(s.message()), ::testing::HasSubstr("more_units"));
+}
+
+TEST(TrinamicServer, MoreUnits_EachUnitFramesAndAnswersItself) {
+  ServerOptions o;
+  ControllerOptions second;
+  second.address = 7;
+  o.more_units.push_back(second);
+  Fixture f(o);
+  ASSERT_EQ(f.server->unit_count(), 2u);
+  ASSERT_TRUE(f.port->Write(std::vector<uint8_t>{0x07, 0x27, 0x01, 0x09, 0, 0, 0, 0, 0}).ok());
+  EXPECT_THAT(f.Query({0x07, 0x20, 0x01, 0xF0, 0, 0, 0, 0, 0}),
+              ElementsAre(0x20, 0x01, 0x09, 0x00, 0x00, 0x00, 0x00, 0x00));
+  f.server->WithUnit(0, [](Controller& c) { EXPECT_EQ(c.state(1).position, 0); });
+  f.server->WithUnit(1, [](Controller& c) { EXPECT_EQ(c.state(1).position, 9); });
+}
+
+TEST(TrinamicServer, Turnaround_ReplyHeldUntilSwitchoverOnClock) {
+  ServerOptions o;
+  o.turnaround = true;
+  Fixture f(o);
+  ASSERT_TRUE(f.port->Write(std::vector<uint8_t>{0x01, 0x43, 0xF0, 0, 0, 0, 0, 0, 0}).ok());
+  f.WaitBytesIn(9);
+  f.server->WithController([](Controller&) {});
+  auto r = f.port->ReadAvailable(30ms);
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(r->empty()) << "no reply before 6 ms have passed on the injected clock";
+  f.clock.Advance(6ms);
+  auto reply = f.port->ReadExactly(8, 2s);
+  ASSERT_TRUE(reply.ok()) << reply.status();
+  EXPECT_EQ((*reply)[0], 0x43);
+}
+
+TEST(TrinamicServer, HardwareReset_StrayZeroByteThenBusy) {
+  Fixture f;
+  ASSERT_TRUE(f.port->Write(std::vector<uint8_t>{0x01, 0xCC, 0, 0, 0, 0, 0, 0, 0}).ok());
+  auto zero = f.port->ReadExactly(1, 2s);
+  ASSERT_TRUE(zero.ok()) << zero.status();
+  EXPECT_THAT(*zero, ElementsAre(0x00));
+  EXPECT_EQ(f.server->counters().reset_bytes, 1u);
+  f.clock.Advance(1100ms);
+  EXPECT_EQ(f.Query({0x01, 0x43, 0xF0, 0, 0, 0, 0, 0, 0})[2], 1);  // reset flag (L853)
+}
+
+TEST(TrinamicServer, CheckPeerBaud_WordsAtTheWrongSpeedAreNoise) {
+  ServerOptions o;
+  o.check_peer_baud = true;
+  Fixture f(o);
+  // `$40` divisor 130 = 9600 baud (§2.1); the host still sends at 19200 afterwards.
+  ASSERT_TRUE(f.port->Write(std::vector<uint8_t>{0x01, 0x40, 0x82, 0x00, 0x03, 0, 0, 0, 0}).ok());
+  f.WaitBytesIn(9);
+  ASSERT_TRUE(f.port->Write(std::vector<uint8_t>{0x01, 0x27, 0x00, 0x05, 0, 0, 0, 0, 0}).ok());
+  f.WaitBytesIn(18);
+  EXPECT_EQ(f.server->counters().noise_bytes, 9u);
+  // The host switches its port to 9600 (both pty ends share one termios, §2.7).
+  transport::SerialConfig config;
+  config.device = f.port->config().device;
+  config.baud = 9600;
+  f.port.reset();
+  auto p = transport::SerialPort::Open(config);
+  ASSERT_TRUE(p.ok()) << p.status();
+  f.port.emplace(*std::move(p));
+  EXPECT_THAT(f.Query({0x01, 0x20, 0x00, 0xF0, 0, 0, 0, 0, 0}),
+              ElementsAre(0x20, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00))
+      << "the `$27` sent at 19200 was not executed";
+}
+
+TEST(TrinamicServer, Break_DiscardsPartialWordOfEveryUnit) {
+  Fixture f;
+  ASSERT_TRUE(f.port->Write(std::vector<uint8_t>{0x01, 0x27, 0x00}).ok());
+  f.WaitBytesIn(3);
+  f.server->Break();
+  EXPECT_EQ(f.server->counters().breaks, 1u);
+  EXPECT_THAT(f.Query({0x01, 0x43, 0xF0, 0, 0, 0, 0, 0, 0}),
+              ElementsAre(0x43, 0x94, 0x01, 0x1F, 0x34, 0x12, 0x00, 0x00));
+}
+
 }  // namespace
 }  // namespace drivegw::sim::trinamic
