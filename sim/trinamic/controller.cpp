@@ -1,5 +1,5 @@
 // Simulated SIXpack/QUADpack controller: register writes, 2 ms motion ticks and query replies
-// (trinamic-sixpack.md §4.2, §5.1-5.8; decisions 1031-1040).
+// (trinamic-sixpack.md §4.2, §5.1-5.9; decisions 1031-1036, 1043, 1044).
 #include "sim/trinamic/controller.h"
 
 #include <algorithm>

@@ -125,6 +125,30 @@ TEST(TrinamicPack, CT07_ReplyOnlyAfterSwitchover) {
   });
 }
 
+// CT-08 "Baud-rate change" — target PACK + ADAPTER (this is the PACK half) — L273, L832: "the
+// adapter sends `01 40 82 00 03 00 00 00 00` at 19200 baud, reconfigures its port to 9600 before
+// the next word, and the next query `01 43 F0 …` is answered (the simulator verifies the peer
+// speed through the shared pty termios and ignores words received at the wrong speed)."
+TEST(TrinamicPack, CT08_BaudChange_PackHalf) {
+  ForBothFramings([](ServerOptions& o) { o.check_peer_baud = true; },
+                  [](PackLine& line) {
+                    line.Write({0x01, 0x40, 0x82, 0x00, 0x03, 0x00, 0x00, 0x00, 0x00});
+                    // Still at 19200: line noise for a PACK listening at 9600.
+                    line.Write(kQueryInfo);
+                    line.Advance(100ms);
+                    EXPECT_TRUE(line.Drain().empty()) << "a word at the old speed was answered";
+                    EXPECT_EQ(line.server->counters().noise_bytes, 9u);
+                    transport::SerialConfig config = line.port->config();
+                    config.baud = 9600;
+                    line.port.reset();
+                    auto reopened = transport::SerialPort::Open(config);
+                    ASSERT_TRUE(reopened.ok()) << reopened.status();
+                    line.port.emplace(*std::move(reopened));
+                    EXPECT_EQ(line.Query(kQueryInfo),
+                              line.Wire({0x43, 0x94, 0x01, 0x1F, 0x34, 0x12, 0x00, 0x00}));
+                  });
+}
+
 // CT-09 "No reply to write commands" — target PACK — reply tables exist only for the queries:
 // "When `01 14 00 80 00 FF 01 00 00` is sent. Then no byte is received within 100 ms."
 TEST(TrinamicPack, CT09_NoReplyToWriteCommands) {
