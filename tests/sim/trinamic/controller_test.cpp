@@ -695,5 +695,71 @@ TEST(ControllerQuery, ReferenceParametersIgnoredWhileMoving) {
   EXPECT_EQ(c.registers(0).vrefmax, 100);
 }
 
+TEST(ControllerPowerDown, Firmware148_NoPowerDownCommand) {
+  Controller c = Make();  // firmware 148: `$45` exists only in 1.46 and since 1.49 (L873)
+  EXPECT_FALSE(c.Handle(Cmd(Opcode::kPowerDown, {kRa, 0x04})));
+  EXPECT_FALSE(c.globals().power_down_enabled);
+}
+
+TEST(ControllerPowerDown, UndervoltageSavesPositionsWhichSurviveReset) {
+  ControllerOptions o;
+  o.firmware = 149;
+  Controller c = Make(o);
+  c.Handle(Cmd(Opcode::kSetPosition, {2, 1234}));
+  c.Handle(Cmd(Opcode::kPowerDown, {kRa, 0x04}));
+  c.SetSupplyVolts(12.9);  // below 13 V (L877)
+  c.Advance(kTick);
+  EXPECT_TRUE(c.motors_disabled());
+  EXPECT_TRUE(c.eeprom().valid);
+  c.Reset();  // power cycle: counters 0, EEPROM kept (decision 1043)
+  c.SetSupplyVolts(24.0);
+  EXPECT_EQ(c.state(2).position, 0);
+  auto r = c.Handle(Cmd(Opcode::kPowerDown, {kRa, 0x01}));  // bit 0: load positions (L881)
+  ASSERT_TRUE(r);
+  EXPECT_EQ((*r)[1] & 0x03, 0x03);
+  EXPECT_EQ(c.state(2).position, 1234);
+  r = c.Handle(Cmd(Opcode::kPowerDown, {kRa, 0x02}));  // bit 1: invalidate
+  ASSERT_TRUE(r);
+  EXPECT_EQ((*r)[1] & 0x02, 0x00);
+}
+
+TEST(ControllerPowerDown, NotEnabled_StateTrackedMotorsKeepRunning) {
+  ControllerOptions o;
+  o.firmware = 146;
+  Controller c = Make(o);
+  c.Handle(Cmd(Opcode::kStartRotation, {0, 100}));
+  c.SetSupplyVolts(12.0);
+  c.Advance(Ticks(10));
+  EXPECT_TRUE(c.globals().power_down_state);  // always tracked (G-23)
+  EXPECT_FALSE(c.motors_disabled());
+  EXPECT_EQ(c.state(0).action, Action::kRotation);
+}
+
+TEST(ControllerIntrospection, QuadPackPeakCurrentWithDipAndDisplay) {
+  ControllerOptions o;
+  o.axes = 4;
+  o.quad_dip_percent = {100, 66, 33, 0, 100, 100};
+  Controller c = Make(o);
+  EXPECT_DOUBLE_EQ(c.PeakCurrentMa(0), 750.0);  // 1.5 A × 128/256 (L512)
+  EXPECT_NEAR(c.PeakCurrentMa(1), 495.0, 1e-9);
+  EXPECT_DOUBLE_EQ(c.PeakCurrentMa(3), 0.0);
+  EXPECT_EQ(c.DisplayDigit(), 0);
+  c.Handle(Cmd(Opcode::kStartRamp, {0, 1000}));
+  c.Handle(Cmd(Opcode::kStartRotation, {1, 50}));
+  c.Advance(kTick);
+  EXPECT_EQ(c.DisplayDigit(), 2);  // active motors (L66)
+  EXPECT_FALSE(c.DisplayPoint());
+  c.Handle(Cmd(Opcode::kStartReferenceSearch, {2}));
+  EXPECT_TRUE(c.DisplayPoint());
+}
+
+TEST(ControllerIntrospection, ReadyOutputOffShowsTtlout1Level) {
+  Controller c = Make();
+  EXPECT_TRUE(c.Ttlout1High());  // reset state high (G-20)
+  c.Handle(Cmd(Opcode::kSetOutputs, {0, 1, 0, 0}));
+  c.Handle(Cmd(Opcode::kStartRamp, {0, 1000}));
+  EXPECT_FALSE(c.Ttlout1High());  // P0 = 0, ready function off: the programmed level
+}
+
 }  // namespace
 }  // namespace drivegw::sim::trinamic
