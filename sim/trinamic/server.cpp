@@ -162,7 +162,9 @@ void TrinamicServer::ClearWords() {
 
 void TrinamicServer::HandleLocked(Unit& unit, const drivegw::trinamic::Command& command,
                                   TimePoint now) {
-  if (auto bytes = drivegw::trinamic::EncodeCommand(command); bytes.ok()) {
+  // Every unit on a multi-drop line decodes the same host word; trace it once (decision 1039).
+  const bool first_unit = &unit == &units_.front();
+  if (auto bytes = drivegw::trinamic::EncodeCommand(command); first_unit && bytes.ok()) {
     trace_.push_back(*std::move(bytes));
     if (trace_.size() > 100000) trace_.pop_front();  // bounded for long-running tools
   }
