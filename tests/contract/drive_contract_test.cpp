@@ -323,7 +323,8 @@ TEST_P(DriveContract, LUDP_A10_LinkLoss_OfflineThenRecovery) {
 
 INSTANTIATE_TEST_SUITE_P(Families, DriveContract,
                          ::testing::Values(FamilyCase{"linmot", &MakeLinMotUdpFixture},
-                                           FamilyCase{"linmot_devicenet", &MakeLinMotDnFixture}),
+                                           FamilyCase{"linmot_devicenet", &MakeLinMotDnFixture},
+                                           FamilyCase{"trinamic", &MakeTrinamicFixture}),
                          [](const ::testing::TestParamInfo<FamilyCase>& info) {
                            return info.param.name;
                          });

@@ -61,5 +61,6 @@ inline void PrintTo(const FamilyCase& c, std::ostream* os) { *os << c.name; }
 // Families under contract (one line per family, defined next to each fixture).
 std::unique_ptr<FamilyFixture> MakeLinMotUdpFixture();
 std::unique_ptr<FamilyFixture> MakeLinMotDnFixture();
+std::unique_ptr<FamilyFixture> MakeTrinamicFixture();
 
 }  // namespace drivegw::contract
