@@ -510,5 +510,43 @@ TEST(SessionCanTest, Transact_OverUdpBus_CommandAndReplyIds) {
   EXPECT_EQ((*session)->link_state(), LinkState::kOnline);
 }
 
+TEST(SessionTest, SendTunnel_SerialLink_FailedPrecondition) {
+  ScriptedController ctl(ReplyFraming::kR8);
+  auto session = OpenSession(ctl);
+  ASSERT_NE(session, nullptr);
+  const absl::Status s = session->SendTunnel({0x41, 0x42});
+  EXPECT_EQ(s.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(std::string(s.message()), ::testing::HasSubstr("tunnel needs CAN"));
+}
+
+// §3.5 (L307-317): the bytes leave as one frame on ID (A << 3) + 1 with DLC = their count.
+TEST(SessionCanTest, SendTunnel_OneFrameOnTunnelId_DlcIsLength) {
+  CanBusConfig bus;
+  bus.kind = CanBusConfig::Kind::kUdpMulticast;
+  bus.group = "239.74.163.77";
+  bus.port = UniquePort();
+  auto peer = transport::OpenCanChannel(bus);
+  ASSERT_TRUE(peer.ok()) << peer.status();
+  auto o = FastOptions();
+  o.address = 5;
+  auto session = ControllerSession::OpenCan(bus, o);
+  ASSERT_TRUE(session.ok()) << session.status();
+  EXPECT_EQ((*session)->SendTunnel({}).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ((*session)->SendTunnel(std::vector<uint8_t>(9, 0x30)).code(),
+            absl::StatusCode::kInvalidArgument);
+  ASSERT_TRUE((*session)->SendTunnel({0x41, 0x42, 0x43}).ok());
+  std::optional<transport::CanFrame> got;
+  const auto deadline = SessionClock::now() + milliseconds(1000);
+  while (!got && SessionClock::now() < deadline) {
+    auto f = (*peer)->Receive(milliseconds(50));
+    if (f.ok() && f->has_value()) got = **f;
+  }
+  ASSERT_TRUE(got.has_value());
+  EXPECT_EQ(got->id, (5u << 3) + 1);
+  EXPECT_EQ(got->dlc, 3);
+  EXPECT_EQ(got->data[0], 0x41);
+  EXPECT_EQ(got->data[2], 0x43);
+}
+
 }  // namespace
 }  // namespace drivegw::trinamic
