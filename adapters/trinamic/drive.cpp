@@ -245,11 +245,10 @@ void TrinamicDrive::OnSample(const AxisSample& sample) noexcept {
     if (tracker_ && tracker_->track == TrackKind::kHome &&
         SessionClock::now() > tracker_->deadline) {
       // G-13: abort a reference search with `$25 0` and report the time-out.
-      updates.push_back(
-          {tracker_->id,
-           {CommandState::kError,
-            absl::StrCat("reference search did not finish within ",
-                         std::to_string(config().timeouts.homing.count()), " ms")}});
+      updates.push_back({tracker_->id,
+                         {CommandState::kError,
+                          absl::StrCat("reference search did not finish within ",
+                                       std::to_string(config().timeouts.homing.count()), " ms")}});
       tracker_.reset();
       abort_homing = true;
     }
@@ -347,21 +346,22 @@ DriveStatus TrinamicDrive::BuildStatusLocked() const {
     const bool tracks_target = tracker_ && (tracker_->track == TrackKind::kMove ||
                                             tracker_->track == TrackKind::kCoordinated);
     s.demand_position_mm = tracks_target ? tracker_->target / mpu_ : s.position_mm;
-    s.in_target = action == kActionInactive && (!tracks_target || sample_->posact == tracker_->target);
+    s.in_target =
+        action == kActionInactive && (!tracks_target || sample_->posact == tracker_->target);
   }
   if (reset_warning_) s.warnings.push_back(kResetWarning);
   if (link_ == LinkState::kOffline) {
     s.warnings.push_back(absl::StrCat("drive '", name_, "' OFFLINE: ", link_reason_));
   }
   if (duplicate_fault_) {
-    s.fault = Fault{kFaultDuplicateAddress,
-                    absl::StrCat("another controller answers at address ",
-                                 std::to_string(config().trinamic->address), " (",
-                                 duplicate_detail_, ")"),
-                    true};
+    s.fault = Fault{
+        kFaultDuplicateAddress,
+        absl::StrCat("another controller answers at address ",
+                     std::to_string(config().trinamic->address), " (", duplicate_detail_, ")"),
+        true};
   } else if (stop_fault_) {
-    s.fault = Fault{kFaultStopCondition, "stop condition (stop switch / analogue limit), $20 P6",
-                    false};
+    s.fault =
+        Fault{kFaultStopCondition, "stop condition (stop switch / analogue limit), $20 P6", false};
   }
   return s;
 }
@@ -370,16 +370,16 @@ void TrinamicDrive::PublishLocked() { PublishStatus(BuildStatusLocked()); }
 
 absl::Status TrinamicDrive::RequireOnlineLocked(const std::string& what) const {
   if (OnlineLocked()) return absl::OkStatus();
-  return absl::UnavailableError(absl::StrCat(
-      Prefix(what), "controller OFFLINE (",
-      link_reason_.empty() ? std::string("no sample yet") : link_reason_, ")"));
+  return absl::UnavailableError(
+      absl::StrCat(Prefix(what), "controller OFFLINE (",
+                   link_reason_.empty() ? std::string("no sample yet") : link_reason_, ")"));
 }
 
 absl::Status TrinamicDrive::RequireOperationalLocked(const std::string& what) const {
   if (duplicate_fault_ || stop_fault_) {
-    return absl::FailedPreconditionError(
-        absl::StrCat(Prefix(what), "drive is in FAULT (", BuildStatusLocked().fault.text,
-                     "); AcknowledgeFault first"));
+    return absl::FailedPreconditionError(absl::StrCat(Prefix(what), "drive is in FAULT (",
+                                                      BuildStatusLocked().fault.text,
+                                                      "); AcknowledgeFault first"));
   }
   DGW_RETURN_IF_ERROR(RequireOnlineLocked(what));
   if (!enabled_) {
@@ -425,11 +425,11 @@ absl::StatusOr<Command> TrinamicDrive::CurrentsWord(bool on) const {
   // `$11` (L514-528): on = the configured I0..I3 from the shadow, off = all indices 8 (0 %).
   const int64_t t0 = shadow_.Get(Opcode::kCurrentControl, "t0");
   if (!on) return Word(Opcode::kCurrentControl, {axis_, 8, 8, 8, 8, t0 == 0 ? 500 : t0});
-  return Word(Opcode::kCurrentControl,
-              {axis_, shadow_.Get(Opcode::kCurrentControl, "i0"),
-               shadow_.Get(Opcode::kCurrentControl, "i1"),
-               shadow_.Get(Opcode::kCurrentControl, "i2"),
-               shadow_.Get(Opcode::kCurrentControl, "i3"), t0 == 0 ? 500 : t0});
+  return Word(
+      Opcode::kCurrentControl,
+      {axis_, shadow_.Get(Opcode::kCurrentControl, "i0"),
+       shadow_.Get(Opcode::kCurrentControl, "i1"), shadow_.Get(Opcode::kCurrentControl, "i2"),
+       shadow_.Get(Opcode::kCurrentControl, "i3"), t0 == 0 ? 500 : t0});
 }
 
 absl::StatusOr<std::optional<Reply>> TrinamicDrive::SendWord(const Command& command) {
@@ -466,9 +466,9 @@ absl::StatusOr<CommandInfo> TrinamicDrive::Enable() {
   {
     std::lock_guard lock(mu_);
     if (duplicate_fault_ || stop_fault_) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          Prefix("Enable"), "drive is in FAULT (", BuildStatusLocked().fault.text,
-          "); AcknowledgeFault first"));
+      return absl::FailedPreconditionError(absl::StrCat(Prefix("Enable"), "drive is in FAULT (",
+                                                        BuildStatusLocked().fault.text,
+                                                        "); AcknowledgeFault first"));
     }
     DGW_RETURN_IF_ERROR(RequireOnlineLocked("Enable"));
     word = CurrentsWord(true);
@@ -505,9 +505,8 @@ absl::Status TrinamicDrive::StopAndWait(const std::string& what) {
   if (w == Wait::kReached) return absl::OkStatus();
   return absl::DeadlineExceededError(
       absl::StrCat(Prefix(what), "motor ", std::to_string(axis_), " still ",
-                   sample_ ? ActionText(sample_->action) : std::string("without sample"),
-                   " after ", std::to_string(config().timeouts.request.count()),
-                   " ms (stop_motors)"));
+                   sample_ ? ActionText(sample_->action) : std::string("without sample"), " after ",
+                   std::to_string(config().timeouts.request.count()), " ms (stop_motors)"));
 }
 
 absl::StatusOr<CommandInfo> TrinamicDrive::Disable() {
@@ -555,10 +554,10 @@ absl::StatusOr<CommandInfo> TrinamicDrive::AcknowledgeFault() {
   {
     std::lock_guard lock(mu_);
     if (duplicate_fault_ && SessionClock::now() - duplicate_seen_ < kDuplicateQuiet) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          Prefix("AcknowledgeFault"), "another controller still answers at address ",
-          std::to_string(config().trinamic->address), " (", duplicate_detail_,
-          "); fix the address switches first"));
+      return absl::FailedPreconditionError(
+          absl::StrCat(Prefix("AcknowledgeFault"), "another controller still answers at address ",
+                       std::to_string(config().trinamic->address), " (", duplicate_detail_,
+                       "); fix the address switches first"));
     }
   }
   const CommandInfo info = StartCommand("AcknowledgeFault", false);
@@ -606,8 +605,8 @@ absl::StatusOr<int> TrinamicDrive::AmaxFor(const std::string& field, double a) c
   const int64_t vstart = shadow_.Get(Opcode::kStartingVelocity, "vstart");
   const int64_t limit = std::max<int64_t>(1, vstart) * 64;
   if (*amax > limit) {
-    auto limit_mm = AmaxToMmPerSecond2(static_cast<int>(std::min<int64_t>(limit, 32767)), scale,
-                                       mpu_);
+    auto limit_mm =
+        AmaxToMmPerSecond2(static_cast<int>(std::min<int64_t>(limit, 32767)), scale, mpu_);
     return absl::InvalidArgumentError(absl::StrCat(
         field, ": ", Num(a), " exceeds the PACK's limit ", Num(limit_mm.ok() ? *limit_mm : 0),
         " mm/s² (amax <= vstart x 64 = ", std::to_string(limit), ", L556; raise $13.vstart)"));
@@ -618,7 +617,8 @@ absl::StatusOr<int> TrinamicDrive::AmaxFor(const std::string& field, double a) c
 absl::StatusOr<int32_t> TrinamicDrive::TargetFor(const std::string& field, double mm) const {
   const AxisConfig& axis = config().axis;
   if (!std::isfinite(mm)) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": ", Num(mm), " is not a finite number"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": ", Num(mm), " is not a finite number"));
   }
   if (mm < axis.min_mm || mm > axis.max_mm) {
     return absl::OutOfRangeError(absl::StrCat(field, ": ", Num(mm), " is outside the axis range [",
@@ -686,8 +686,8 @@ absl::Status TrinamicDrive::StartRampTo(int32_t target) {
 
 absl::StatusOr<CommandInfo> TrinamicDrive::AwaitAcceptance(uint64_t id, const std::string& kind) {
   const auto& tc = *config().trinamic;
-  const auto deadline = SessionClock::now() + config().timeouts.accept + 2 * tc.poll_period +
-                        2 * tc.reply_timeout;
+  const auto deadline =
+      SessionClock::now() + config().timeouts.accept + 2 * tc.poll_period + 2 * tc.reply_timeout;
   std::unique_lock lock(mu_);
   const Wait w = WaitLocked(lock, deadline, [&] {
     auto info = GetCommand(id);
@@ -699,10 +699,10 @@ absl::StatusOr<CommandInfo> TrinamicDrive::AwaitAcceptance(uint64_t id, const st
       ++counters_.accept_failures;
       if (tracker_ && tracker_->id == id) tracker_.reset();
       const auto window = config().timeouts.accept + 2 * tc.poll_period + 2 * tc.reply_timeout;
-      const std::string msg = absl::StrCat(
-          Prefix(kind), "not confirmed: no $20 after the word showed motor ",
-          std::to_string(axis_), " active or at its target within ",
-          std::to_string(window.count()), " ms (no acknowledgements exist, G-06)");
+      const std::string msg =
+          absl::StrCat(Prefix(kind), "not confirmed: no $20 after the word showed motor ",
+                       std::to_string(axis_), " active or at its target within ",
+                       std::to_string(window.count()), " ms (no acknowledgements exist, G-06)");
       UpdateCommand(id, CommandState::kError, msg);
       return absl::DeadlineExceededError(msg);
     }
@@ -760,8 +760,8 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunMotion(const MotionCommand& cmd) {
                : posact;
   }
   if (const auto* s = std::get_if<StopMotion>(&cmd)) {
-    const double d = s->deceleration_mm_s2 == 0 ? axis.max_acceleration_mm_s2
-                                                : s->deceleration_mm_s2;
+    const double d =
+        s->deceleration_mm_s2 == 0 ? axis.max_acceleration_mm_s2 : s->deceleration_mm_s2;
     int vmax = 0;
     {
       std::lock_guard lock(mu_);
@@ -813,13 +813,12 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunMotion(const MotionCommand& cmd) {
     }
     const double end_mm = base / mpu_ + m->distance_mm;
     if (end_mm < axis.min_mm || end_mm > axis.max_mm) {
-      return absl::OutOfRangeError(absl::StrCat(
-          "move_relative.distance_mm: ", Num(m->distance_mm), " from ", Num(base / mpu_),
-          " mm ends at ", Num(end_mm), " mm, outside the axis range [", Num(axis.min_mm), ", ",
-          Num(axis.max_mm), "]"));
+      return absl::OutOfRangeError(absl::StrCat("move_relative.distance_mm: ", Num(m->distance_mm),
+                                                " from ", Num(base / mpu_), " mm ends at ",
+                                                Num(end_mm), " mm, outside the axis range [",
+                                                Num(axis.min_mm), ", ", Num(axis.max_mm), "]"));
     }
-    DGW_ASSIGN_OR_RETURN(const int32_t steps,
-                         MmToMicrosteps(m->distance_mm, mpu_));
+    DGW_ASSIGN_OR_RETURN(const int32_t steps, MmToMicrosteps(m->distance_mm, mpu_));
     const int64_t t = int64_t{base} + steps;
     if (t < std::numeric_limits<int32_t>::min() || t > std::numeric_limits<int32_t>::max()) {
       return absl::OutOfRangeError("move_relative.distance_mm: target outside int32 microsteps");
@@ -946,9 +945,8 @@ absl::StatusOr<std::vector<CommandInfo>> TrinamicDrive::MoveCoordinated(
                        pack_ ? pack_->key() : std::string("?"), " ($50 interpolates one PACK)"));
     }
     if (mask & (1 << t->axis_)) {
-      return absl::InvalidArgumentError(absl::StrCat(Prefix(kind), "motor ",
-                                                     std::to_string(t->axis_),
-                                                     " appears twice in the group"));
+      return absl::InvalidArgumentError(absl::StrCat(
+          Prefix(kind), "motor ", std::to_string(t->axis_), " appears twice in the group"));
     }
     mask |= static_cast<uint8_t>(1 << t->axis_);
     members.push_back(t);
@@ -966,9 +964,9 @@ absl::StatusOr<std::vector<CommandInfo>> TrinamicDrive::MoveCoordinated(
       auto s = t->RequireOperationalLocked(kind);
       if (!s.ok()) return s;
       if (t->ActionLocked() != kActionInactive) {
-        return absl::FailedPreconditionError(absl::StrCat(
-            t->Prefix(kind), "motor ", std::to_string(t->axis_), " is active (",
-            ActionText(t->ActionLocked()), "); $50 needs standing motors (L908)"));
+        return absl::FailedPreconditionError(
+            absl::StrCat(t->Prefix(kind), "motor ", std::to_string(t->axis_), " is active (",
+                         ActionText(t->ActionLocked()), "); $50 needs standing motors (L908)"));
       }
       posact = t->sample_->posact;
     }
@@ -987,8 +985,8 @@ absl::StatusOr<std::vector<CommandInfo>> TrinamicDrive::MoveCoordinated(
 
   std::vector<CommandInfo> infos;
   for (TrinamicDrive* t : members) {
-    infos.push_back(t->BeginTracker(kind, TrackKind::kCoordinated, 0, SessionClock::time_point::max(),
-                                    {}));
+    infos.push_back(
+        t->BeginTracker(kind, TrackKind::kCoordinated, 0, SessionClock::time_point::max(), {}));
   }
   auto fail = [&](const absl::Status& s) {
     for (size_t i = 0; i < members.size(); ++i) {
@@ -1061,8 +1059,7 @@ absl::Status TrinamicDrive::WriteParameter(const ParameterRef& ref, int64_t valu
     std::lock_guard lock(mu_);
     // CT-55: validated before anything goes out.
     if (auto s = shadow_.Validate(ref.id, value, baud); !s.ok()) return Prefixed(Prefix(what), s);
-    if ((*def)->rule == WriteRule::kAxisStopped && sample_ &&
-        sample_->action != kActionInactive) {
+    if ((*def)->rule == WriteRule::kAxisStopped && sample_ && sample_->action != kActionInactive) {
       return absl::FailedPreconditionError(absl::StrCat(
           Prefix(what), (*def)->name, " changes only while motor ", std::to_string(axis_),
           " stands still (L539, L609, CT-56); it is active: ", ActionText(sample_->action)));
@@ -1131,14 +1128,15 @@ absl::StatusOr<NativeReply> TrinamicDrive::SendNative(const NativeRequest& req) 
   }
   const auto* tr = std::get_if<TrinamicRequest>(&req);
   if (tr == nullptr) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(Prefix("SendNative"), "not a Trinamic request (TrinamicRequest / "
-                                           "TrinamicTunnelRequest)"));
+    return absl::InvalidArgumentError(absl::StrCat(Prefix("SendNative"),
+                                                   "not a Trinamic request (TrinamicRequest / "
+                                                   "TrinamicTunnelRequest)"));
   }
   if (tr->opcode >= 0xF2 && tr->opcode <= 0xF7) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        Prefix("SendNative"), "service opcodes $F2..$F7 are refused (L918: misuse can damage the "
-                              "unit permanently)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(Prefix("SendNative"),
+                     "service opcodes $F2..$F7 are refused (L918: misuse can damage the "
+                     "unit permanently)"));
   }
   auto spec = FindOpcode(tr->opcode);
   if (!spec.ok()) {

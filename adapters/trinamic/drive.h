@@ -5,8 +5,8 @@
 #pragma once
 
 #include <condition_variable>
-#include <functional>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -117,8 +117,7 @@ class TrinamicDrive final : public DriveBase, private PackListener {
   absl::Status RequireOnlineLocked(const std::string& what) const;
   absl::Status RequireOperationalLocked(const std::string& what) const;
   template <typename Pred>
-  Wait WaitLocked(std::unique_lock<std::mutex>& lock, SessionClock::time_point deadline,
-                  Pred pred);
+  Wait WaitLocked(std::unique_lock<std::mutex>& lock, SessionClock::time_point deadline, Pred pred);
   // Waits for a sample sent after `after` satisfying pred.
   Wait WaitSampleLocked(std::unique_lock<std::mutex>& lock, SessionClock::time_point after,
                         SessionClock::time_point deadline,

@@ -50,8 +50,7 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateTrinamicDrive(const DriveConfig& co
   if (t.axis >= t.axes) {
     return Bad(config, "axis",
                absl::StrCat(std::to_string(t.axis), " exceeds ", t.axes - 1, " (",
-                            t.axes == 6 ? "SIXpack" : "QUADpack", " motors 0..", t.axes - 1,
-                            ")"));
+                            t.axes == 6 ? "SIXpack" : "QUADpack", " motors 0..", t.axes - 1, ")"));
   }
   if (!(t.microsteps_per_unit > 0) || !std::isfinite(t.microsteps_per_unit)) {
     return Bad(config, "microsteps_per_unit",
@@ -74,10 +73,10 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateTrinamicDrive(const DriveConfig& co
     const double steps = mm * t.microsteps_per_unit;
     if (!std::isfinite(steps) || steps < std::numeric_limits<int32_t>::min() ||
         steps > std::numeric_limits<int32_t>::max()) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "drive '", config.name, "'.axis.", field, ": ", mm, " mm = ", steps,
-          " microsteps at trinamic.microsteps_per_unit ", t.microsteps_per_unit,
-          " exceeds the int32 position range (L60)"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("drive '", config.name, "'.axis.", field, ": ", mm, " mm = ", steps,
+                       " microsteps at trinamic.microsteps_per_unit ", t.microsteps_per_unit,
+                       " exceeds the int32 position range (L60)"));
     }
   }
   ParameterShadow shadow(t.axis, t.axes);

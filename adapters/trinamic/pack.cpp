@@ -34,9 +34,9 @@ Registry& TheRegistry() {
 absl::Status SameTransport(const TrinamicConfig& have, const TrinamicConfig& want,
                            const std::string& key) {
   auto conflict = [&](const std::string& field, const std::string& a, const std::string& b) {
-    return absl::InvalidArgumentError(absl::StrCat("trinamic.", field, ": ", b,
-                                                   " conflicts with ", a, " of another axis on ",
-                                                   key, " (one controller, one transport)"));
+    return absl::InvalidArgumentError(absl::StrCat("trinamic.", field, ": ", b, " conflicts with ",
+                                                   a, " of another axis on ", key,
+                                                   " (one controller, one transport)"));
   };
   if (have.serial && want.serial) {
     if (have.serial->baud != want.serial->baud) {
@@ -270,9 +270,9 @@ absl::Status Pack::EnsureApplied() {
       if (!r.ok()) {
         std::lock_guard lock(mu_);
         if (reset) reset_pending_ = true;  // retry the whole re-apply
-        return absl::Status(r.status().code(), absl::StrCat("re-applying parameters of motor ",
-                                                            std::to_string(n), ": ",
-                                                            r.status().message()));
+        return absl::Status(r.status().code(),
+                            absl::StrCat("re-applying parameters of motor ", std::to_string(n),
+                                         ": ", r.status().message()));
       }
       std::lock_guard lock(mu_);
       ++counters_.reapplied_words;
@@ -416,9 +416,9 @@ void Pack::Run() {
   std::unique_lock lock(mu_);
   next_reset_probe_ = SessionClock::now();
   while (!stop_) {
-    const bool apply = reset_pending_ || std::any_of(axes_.begin(), axes_.end(), [](const auto& kv) {
-                         return kv.second.needs_apply;
-                       });
+    const bool apply =
+        reset_pending_ || std::any_of(axes_.begin(), axes_.end(),
+                                      [](const auto& kv) { return kv.second.needs_apply; });
     const bool events = !events_.empty();
     if (events || (apply && session_->link_state() == LinkState::kOnline)) {
       lock.unlock();

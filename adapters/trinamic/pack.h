@@ -56,8 +56,8 @@ struct PackCounters {
   uint64_t polls = 0;           // `$20` queries answered
   uint64_t velocity_polls = 0;  // `$21` queries answered
   uint64_t poll_failures = 0;
-  uint64_t reset_probes = 0;    // `$43` every ~500 ms
-  uint64_t resets = 0;          // resets detected (reset flag / observer)
+  uint64_t reset_probes = 0;     // `$43` every ~500 ms
+  uint64_t resets = 0;           // resets detected (reset flag / observer)
   uint64_t reapplied_words = 0;  // configuration words sent by the (re-)apply path
   uint64_t duplicates = 0;
 };

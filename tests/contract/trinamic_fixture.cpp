@@ -1,12 +1,12 @@
 // Contract fixture of the Trinamic family: the simulated SIXpack (sim/trinamic) on a real
 // pseudo-terminal, with a second PACK on the same line that can be switched to our address
 // (duplicate address = the fatal fault), and the axis drive from CreateTrinamicDrive.
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <string>
-
-#include <unistd.h>
 
 #include "adapters/trinamic/codec.h"
 #include "adapters/trinamic/drive.h"
@@ -29,10 +29,10 @@ class TrinamicFixture final : public FamilyFixture {
   absl::Status Start(DriveRegistry& registry) override {
     static std::atomic<int> n{0};
     trsim::ServerOptions o;
-    o.pty_path = (std::filesystem::temp_directory_path() /
-                  ("dgw-contract-trinamic-" + std::to_string(::getpid()) + "-" +
-                   std::to_string(n++)))
-                     .string();
+    o.pty_path =
+        (std::filesystem::temp_directory_path() /
+         ("dgw-contract-trinamic-" + std::to_string(::getpid()) + "-" + std::to_string(n++)))
+            .string();
     // Reference switch of motor 0 active from 100 microsteps (10 mm) on, ahead of the search
     // (not NullLeft: ascending, L565).
     o.controller.world[0].switch_low = 100;
@@ -120,8 +120,6 @@ class TrinamicFixture final : public FamilyFixture {
 
 }  // namespace
 
-std::unique_ptr<FamilyFixture> MakeTrinamicFixture() {
-  return std::make_unique<TrinamicFixture>();
-}
+std::unique_ptr<FamilyFixture> MakeTrinamicFixture() { return std::make_unique<TrinamicFixture>(); }
 
 }  // namespace drivegw::contract

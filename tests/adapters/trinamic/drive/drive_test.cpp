@@ -1,8 +1,11 @@
 // TrinamicDrive against the simulated SIXpack on a real pty (and on the UDP multicast CAN bus),
 // real time. Positions are asserted exactly in microsteps (microsteps_per_unit = 1: 1 mm = 1
 // microstep); waits are bounded conditions, never sleeps. CT-nn = trinamic-sixpack.md §8.
+#include "adapters/trinamic/drive.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -16,10 +19,7 @@
 #include <thread>
 #include <vector>
 
-#include <unistd.h>
-
 #include "adapters/core/clock.h"
-#include "adapters/trinamic/drive.h"
 #include "adapters/trinamic/factory.h"
 #include "adapters/trinamic/parameters.h"
 #include "sim/trinamic/can_server.h"
@@ -139,7 +139,8 @@ class TrinamicDriveTest : public ::testing::Test {
     return WaitStatus(d, pred, timeout);
   }
   static CommandInfo WaitFinal(Drive* d, uint64_t id, std::chrono::milliseconds timeout = 5000ms) {
-    WaitUntil(d, [&](const DriveStatus&) { return IsFinal(d->GetCommand(id)->state); }, timeout);
+    WaitUntil(
+        d, [&](const DriveStatus&) { return IsFinal(d->GetCommand(id)->state); }, timeout);
     return *d->GetCommand(id);
   }
   static void Enable(Drive* d) {
@@ -310,8 +311,7 @@ TEST_F(TrinamicDriveTest, Home_Timeout_AbortedWithRotationZeroAndError) {
   const CommandInfo done = WaitFinal(d, r->id);
   EXPECT_EQ(done.state, CommandState::kError);
   EXPECT_THAT(done.message, HasSubstr("reference search did not finish within 300 ms"));
-  const DriveStatus s =
-      WaitUntil(d, [](const DriveStatus& s) { return s.native.main_state == 0; });
+  const DriveStatus s = WaitUntil(d, [](const DriveStatus& s) { return s.native.main_state == 0; });
   EXPECT_EQ(s.native.main_state, 0u);  // `$25 0` ended the search (G-13)
   EXPECT_FALSE(s.homed);
 }
@@ -354,12 +354,12 @@ TEST_F(TrinamicDriveTest, Parameters_WriteReadValidate_NoWireTrafficOnRefusal) {
   const uint64_t before = server_->counters().words;
   server_->ClearWords();
   const std::vector<std::pair<uint32_t, int64_t>> bad = {
-      {ParameterId(Opcode::kVelocitySetting, 0), 32},  // clkdiv 32
-      {ParameterId(Opcode::kStartingVelocity, 5), 4},  // div 4
-      {ParameterId(Opcode::kSetRamp, 3), 512},         // vmax 512
-      {ParameterId(Opcode::kSetRamp, 1), 0},           // amax 0
-      {ParameterId(Opcode::kSetRamp, 1), 321},         // amax > vstart 5 x 64
-      {ParameterId(Opcode::kStartingVelocity, 1), 6},  // vmin > vstart
+      {ParameterId(Opcode::kVelocitySetting, 0), 32},       // clkdiv 32
+      {ParameterId(Opcode::kStartingVelocity, 5), 4},       // div 4
+      {ParameterId(Opcode::kSetRamp, 3), 512},              // vmax 512
+      {ParameterId(Opcode::kSetRamp, 1), 0},                // amax 0
+      {ParameterId(Opcode::kSetRamp, 1), 321},              // amax > vstart 5 x 64
+      {ParameterId(Opcode::kStartingVelocity, 1), 6},       // vmin > vstart
       {ParameterId(Opcode::kReferenceParameters, 1), 301},  // vrefmax > vmax 300
       {ParameterId(Opcode::kSetBaudRate, 2), 0},            // switchover 0
       {ParameterId(Opcode::kSetPacketTimeout, 0), 2},       // shorter than a word at 19200
@@ -407,8 +407,8 @@ TEST_F(TrinamicDriveTest, CT57_ResetReappliesParametersBeforeMotion) {
   Drive* d = Activate(c);
   ASSERT_NE(d, nullptr);
   ASSERT_TRUE(WaitUntil(d, [&](const DriveStatus&) {
-    return Sim<int>([](Controller& c) { return c.registers(0).vmax; }) == 300;
-  }).state != DriveState::kOffline);
+                return Sim<int>([](Controller& c) { return c.registers(0).vmax; }) == 300;
+              }).state != DriveState::kOffline);
   EXPECT_EQ(Sim<int>([](Controller& c) { return c.registers(0).vmax; }), 300);
   Enable(d);
   EXPECT_EQ(MoveDone(d, MoveAbsolute{500, 5000, 50000, 0}).state, CommandState::kDone);
@@ -449,8 +449,8 @@ TEST_F(TrinamicDriveTest, CT57_ConfiguredVmaxOnTheWireAfterReset) {
   WaitUntil(d, [](const DriveStatus& s) { return !s.warnings.empty(); });
   EXPECT_EQ(SimEventually<int>([](Controller& c) { return c.registers(0).vmax; }, 300), 300);
   const auto words = server_->words();
-  EXPECT_THAT(words, ::testing::Contains(Bytes{0x01, 0x14, 0x00, 0x80, 0x00, 0x2C, 0x01, 0x00,
-                                               0x00}));
+  EXPECT_THAT(words,
+              ::testing::Contains(Bytes{0x01, 0x14, 0x00, 0x80, 0x00, 0x2C, 0x01, 0x00, 0x00}));
 }
 
 TEST_F(TrinamicDriveTest, CT01_CT02_MoveWordsAreByteExact) {
@@ -550,12 +550,36 @@ TEST_F(TrinamicDriveTest, Native_UnitInformationBodyAndServiceRefusal) {
   EXPECT_EQ(*d->ReadParameter({ParameterId(Opcode::kSetRamp, 1)}), 64);
 }
 
+TEST_F(TrinamicDriveTest, MoveVelocity_RotaryAxis_RotationUntilStop) {
+  StartSim();
+  DriveConfig c = Config();
+  c.axis.kind = AxisKind::kRotary;
+  c.axis.min_mm = 0;
+  c.axis.max_mm = 6400;
+  Drive* d = Activate(c);
+  ASSERT_NE(d, nullptr);
+  Enable(d);
+  auto r = d->Move(MoveVelocity{-2000, 50000, 0});  // `$25` with a negative register (L711)
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->state, CommandState::kActive);
+  const DriveStatus s = WaitUntil(d, [](const DriveStatus& s) { return s.velocity_mm_s < -1000; });
+  EXPECT_EQ(s.state, DriveState::kMoving);
+  EXPECT_EQ(s.native.text, "rotation");
+  EXPECT_EQ(Sim<int>([](Controller& c) { return c.state(0).rotation_velocity; }), -39);
+  auto stop = d->Move(StopMotion{0});
+  ASSERT_TRUE(stop.ok()) << stop.status();
+  EXPECT_EQ(WaitFinal(d, stop->id).state, CommandState::kDone);
+  EXPECT_EQ(d->GetCommand(r->id)->state, CommandState::kAborted);
+  EXPECT_EQ(d->GetStatus().state, DriveState::kEnabled);
+}
+
 TEST(TrinamicFactoryTest, ConfigErrors_NameTheField) {
   DriveConfig c = BaseConfig("feeder-x", 6);
   c.trinamic->serial = SerialLineConfig{"/dev/null", 19200, false, 6000us};
   auto d = CreateTrinamicDrive(c, SteadyClock::Instance());
   ASSERT_FALSE(d.ok());
-  EXPECT_EQ(d.status().message(), "drive 'feeder-x'.trinamic.axis: 6 exceeds 5 (SIXpack motors 0..5)");
+  EXPECT_EQ(d.status().message(),
+            "drive 'feeder-x'.trinamic.axis: 6 exceeds 5 (SIXpack motors 0..5)");
   c.trinamic->axis = 0;
   c.trinamic->response_address = 1;
   EXPECT_THAT(CreateTrinamicDrive(c, SteadyClock::Instance()).status().message(),
@@ -599,8 +623,8 @@ TEST_F(TrinamicCanDriveTest, MoveOverCan_DoneAtTarget) {
   auto d = CreateTrinamicDrive(c, SteadyClock::Instance());
   ASSERT_TRUE(d.ok()) << d.status();
   ASSERT_TRUE((*d)->Activate().ok());
-  const DriveStatus s = WaitStatus(
-      d->get(), [](const DriveStatus& s) { return s.state != DriveState::kOffline; });
+  const DriveStatus s =
+      WaitStatus(d->get(), [](const DriveStatus& s) { return s.state != DriveState::kOffline; });
   ASSERT_EQ(s.state, DriveState::kDisabled);
   ASSERT_TRUE((*d)->Enable().ok());
   auto r = (*d)->Move(MoveAbsolute{-777, 10000, 60000, 0});
