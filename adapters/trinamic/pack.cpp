@@ -14,6 +14,8 @@ using std::chrono::milliseconds;
 
 // `$43` reset probe period (decision 1085): a reset is noticed within ~0.5 s.
 constexpr milliseconds kResetProbePeriod{500};
+// Motion words closer together than this share one `$43` (decision 1086).
+constexpr milliseconds kMotionProbeAge{20};
 
 std::string CanSpec(const CanBusConfig& c) {
   if (c.kind == CanBusConfig::Kind::kSocketCan) return absl::StrCat("socketcan:", c.interface);
@@ -216,15 +218,65 @@ void Pack::PollSoon(uint8_t axis) {
   cv_.notify_all();
 }
 
+namespace {
+// Words that start or redirect motion (§4.2): a freshly reset PACK must not see them before its
+// parameters (CT-57).
+bool IsMotionWord(Opcode op) {
+  switch (op) {
+    case Opcode::kStartReferenceSearch:
+    case Opcode::kStartRamp:
+    case Opcode::kActivatePi:
+    case Opcode::kStartRotation:
+    case Opcode::kSetTarget:
+    case Opcode::kStartRampParallel:
+    case Opcode::kInterpolate:
+      return true;
+    default:
+      return false;
+  }
+}
+}  // namespace
+
 absl::StatusOr<std::optional<Reply>> Pack::Send(const Command& command, Deadline deadline) {
   // A link that is not ONLINE is probed first so that a reset that happened meanwhile is seen
   // (and re-applied) before this word (CT-57, decision 1086).
   if (session_->link_state() != LinkState::kOnline) {
     if (auto s = session_->Probe(); !s.ok()) return s;
   }
+  const bool motion = IsMotionWord(command.opcode);
+  uint64_t gen0 = 0;
+  bool pending0 = false;
+  {
+    std::lock_guard lock(mu_);
+    gen0 = reset_gen_;
+    pending0 = reset_pending_;
+  }
+  if (motion) {
+    // Every motion command gets its own `$43` first: a reset between two periodic polls would
+    // otherwise run it with default parameters (decision 1086). Words of one command ($26 + $23,
+    // $26... + $50) follow within kMotionProbeAge and share the probe.
+    bool stale = false;
+    {
+      std::lock_guard lock(mu_);
+      stale = SessionClock::now() - last_motion_probe_ > kMotionProbeAge;
+    }
+    if (stale) {
+      ProbeReset();
+      std::lock_guard lock(mu_);
+      last_motion_probe_ = SessionClock::now();
+    }
+  }
+  bool was_reset = false;
   {
     std::lock_guard cb(cb_mu_);
     if (auto s = EnsureApplied(); !s.ok()) return s;
+    std::lock_guard lock(mu_);
+    was_reset = pending0 || reset_gen_ != gen0;
+  }
+  if (motion && was_reset) {
+    return absl::AbortedError(absl::StrCat(
+        name(), ": ", SpecOf(command.opcode).name,
+        " not sent: the controller was reset (L853); parameters re-applied, re-enable first"));
   }
   return session_->Transact(command, deadline);
 }
@@ -304,6 +356,7 @@ void Pack::OnControllerReset(uint8_t) noexcept {
   {
     std::lock_guard lock(mu_);
     reset_pending_ = true;
+    ++reset_gen_;
   }
   cv_.notify_all();
 }

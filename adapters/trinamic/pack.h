@@ -83,7 +83,8 @@ class Pack final : private SessionObserver {
   void Unregister(uint8_t axis);
 
   // One word through the session (serialised). Runs a pending re-apply first, so no motion word
-  // reaches a freshly reset PACK before its parameters (CT-57).
+  // reaches a freshly reset PACK before its parameters (CT-57); a motion word also gets a fresh
+  // `$43` first and is not sent (Aborted) when that `$43` reveals a reset.
   absl::StatusOr<std::optional<Reply>> Send(const Command& command, Deadline deadline);
   // The `$44` tunnel: `data` (1..8 bytes) as one CAN frame on TunnelTransmitCanId(address).
   absl::Status SendTunnel(const std::vector<uint8_t>& data);
@@ -147,10 +148,12 @@ class Pack final : private SessionObserver {
   std::map<uint8_t, Axis> axes_;
   bool stop_ = false;
   bool reset_pending_ = false;
-  bool poke_ = false;  // PollSoon
+  uint64_t reset_gen_ = 0;  // resets reported by the session
+  bool poke_ = false;       // PollSoon
   std::vector<Event> events_;
   std::string link_reason_;
   SessionClock::time_point next_reset_probe_{};
+  SessionClock::time_point last_motion_probe_{};  // `$43` before the newest motion command
   PackCounters counters_;
   std::thread thread_;
 };

@@ -453,6 +453,33 @@ TEST_F(TrinamicDriveTest, CT57_ConfiguredVmaxOnTheWireAfterReset) {
               ::testing::Contains(Bytes{0x01, 0x14, 0x00, 0x80, 0x00, 0x2C, 0x01, 0x00, 0x00}));
 }
 
+// CT-57, strict: a move right after a reset (before the periodic `$43`) is not executed with the
+// PACK's defaults: the drive probes `$43` first, re-applies and refuses the move.
+TEST_F(TrinamicDriveTest, CT57_MoveRightAfterReset_ReappliedAndNotSent) {
+  StartSim();
+  DriveConfig c = Config();
+  c.trinamic->parameters = {{"$14.vmax", 300}};
+  Drive* d = Activate(c);
+  ASSERT_NE(d, nullptr);
+  Enable(d);
+  const double v300 = 300 * 20e6 / (6 * 65536.0);  // keeps vmax 300: no `$14` before the move
+  server_->WithController([](Controller& c) { c.Reset(); });
+  server_->ClearWords();
+  auto r = d->Move(MoveAbsolute{2000, v300, 20000, 0});
+  ASSERT_FALSE(r.ok()) << ::testing::PrintToString(server_->words());
+  EXPECT_THAT(r.status().message(), HasSubstr("reset"));
+  EXPECT_EQ(SimEventually<int>([](Controller& c) { return c.registers(0).vmax; }, 300), 300);
+  EXPECT_EQ(SimPosition(0), 0);
+  const auto words = server_->words();
+  // The re-applied `$14` carries vmax 300 (P3/P4 = 2C 01); its amax is the move's, absorbed.
+  EXPECT_TRUE(std::any_of(words.begin(), words.end(), [](const Bytes& w) {
+    return w[1] == 0x14 && w[2] == 0 && w[5] == 0x2C && w[6] == 0x01;
+  })) << ::testing::PrintToString(words);
+  for (const Bytes& w : words) EXPECT_NE(w[1], 0x23) << "motion word after a reset";
+  const DriveStatus s = WaitUntil(d, [](const DriveStatus& s) { return !s.warnings.empty(); });
+  EXPECT_EQ(s.state, DriveState::kDisabled);
+}
+
 TEST_F(TrinamicDriveTest, CT01_CT02_MoveWordsAreByteExact) {
   StartSim();
   DriveConfig c0 = Config("m0", 0);
