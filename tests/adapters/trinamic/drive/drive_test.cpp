@@ -600,6 +600,31 @@ TEST_F(TrinamicDriveTest, MoveVelocity_RotaryAxis_RotationUntilStop) {
   EXPECT_EQ(d->GetStatus().state, DriveState::kEnabled);
 }
 
+// `$CC` through SendNative (allowed, §4.2 L895-902): the PACK boots ~1 s, the session comes back
+// with the reset flag and the drive re-applies its parameters (decisions 1086, 1093).
+TEST_F(TrinamicDriveTest, NativeHardwareReset_ReappliedAfterBoot) {
+  StartSim();
+  DriveConfig c = Config();
+  c.trinamic->parameters = {{"$14.vmax", 300}};
+  Drive* d = Activate(c);
+  ASSERT_NE(d, nullptr);
+  Enable(d);
+  auto r = d->SendNative(TrinamicRequest{0xCC, {}});
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_TRUE(r->data.empty());  // no reply (L899)
+  const DriveStatus s = WaitUntil(
+      d,
+      [](const DriveStatus& s) {
+        return s.state != DriveState::kOffline &&
+               std::find(s.warnings.begin(), s.warnings.end(),
+                         "controller reset: parameters re-applied, re-enable and re-home") !=
+                   s.warnings.end();
+      },
+      6000ms);
+  EXPECT_EQ(s.state, DriveState::kDisabled);
+  EXPECT_EQ(SimEventually<int>([](Controller& c) { return c.registers(0).vmax; }, 300), 300);
+}
+
 TEST(TrinamicFactoryTest, ConfigErrors_NameTheField) {
   DriveConfig c = BaseConfig("feeder-x", 6);
   c.trinamic->serial = SerialLineConfig{"/dev/null", 19200, false, 6000us};
