@@ -98,11 +98,13 @@ double MotionDirection(const Kinematics& k) {
 // acceleration is so large that v changes sign even when it is taken out with the full jerk
 // (only after a limit change or from an arbitrary start state; a profile planned with these
 // limits always reaches v = 0 with a = 0). A stop would have to swing back; the planners go
-// through v = 0 instead. The margin keeps a state at the very end of a stop ramp (v and
-// a|a|/2j cancel up to rounding) on the ordinary intermediate-stop path.
-bool TurningTowards(const Kinematics& k, double dir, double jerk) {
-  const double v = k.velocity;
-  return v * dir < 0 && dir * ZeroingVelocity(k, jerk) > 1e-9 * std::abs(v);
+// through v = 0 instead. The velocity would cross 0 with |a| = sqrt(2j·|v_z|); below 1e-6 of
+// the smaller acceleration limit that is rounding (a state sampled at the very end of a stop
+// ramp, where v and a|a|/2j cancel), and the ordinary intermediate stop applies.
+bool TurningTowards(const Kinematics& k, double dir, const JerkLimits& l) {
+  const double negligible_a = 1e-6 * std::min(l.acceleration, l.deceleration);
+  return k.velocity * dir < 0 &&
+         dir * ZeroingVelocity(k, l.jerk) > negligible_a * negligible_a / (2 * l.jerk);
 }
 
 // Appends the time-optimal ramp from the builder's (v, a) to velocity `vt` with a = 0 at the
@@ -261,7 +263,7 @@ absl::StatusOr<JerkProfile> JerkProfile::Plan(Kinematics start, double target, J
     }
     const double dir = Sign(rest);
     const double moving = MotionDirection(b.state());
-    if (pass == 0 && moving != 0 && moving != dir && !TurningTowards(b.state(), dir, l.jerk)) {
+    if (pass == 0 && moving != 0 && moving != dir && !TurningTowards(b.state(), dir, l)) {
       // stober-motion.md §8.2 (L304-306): target behind the motion, or not reachable within
       // deceleration and jerk: decelerate to 0 (acceleration back to 0), then head for it.
       b.Append(stop);
@@ -299,7 +301,7 @@ absl::StatusOr<JerkVelocityProfile> JerkVelocityProfile::Plan(Kinematics start, 
   }
   Builder b(start);
   const double moving = MotionDirection(start);
-  if (vt != 0 && moving != 0 && moving != Sign(vt) && !TurningTowards(start, Sign(vt), l.jerk)) {
+  if (vt != 0 && moving != 0 && moving != Sign(vt) && !TurningTowards(start, Sign(vt), l)) {
     // Sign change via zero (stober-motion.md §8.5, L917-919): stop with a = 0, then ramp up.
     Ramp(b, 0, l);
     b.SettleAtRest();

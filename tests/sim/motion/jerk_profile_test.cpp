@@ -428,6 +428,71 @@ TEST(JerkProfileTest, Plan_MovingAtTheTarget_StopsAndComesBack) {
   ExpectWithinLimits(p, kLimits, "at target moving");
 }
 
+// Largest |a| while the velocity has the sign of `dir` and |v| grows.
+double MaxAccelerationTowards(const Profile& p, double dir, int samples = 20000) {
+  double peak = 0;
+  for (int i = 0; i <= samples; ++i) {
+    const Kinematics k = p.At(SegmentsEnd(p) * i / samples);
+    if (k.velocity * dir > 0 && k.acceleration * dir > 0) {
+      peak = std::max(peak, std::abs(k.acceleration));
+    }
+  }
+  return peak;
+}
+
+TEST(JerkProfileTest, Replan_AtTheTailOfAStop_FinishesTheStopThenUsesTheFullAcceleration) {
+  // States at the very end of a stop ramp: v and a|a|/2j cancel up to rounding. A command the
+  // other way finishes the stop (|a| <= deceleration while v keeps its sign) and then ramps up
+  // with the full acceleration (far above the deceleration here), not with min(acc, dec) as
+  // for a state that is really turning round.
+  const JerkLimits l{1000, 10000, 714, 581000};
+  auto stop = JerkVelocityProfile::Stop({0, 6, 0}, l.deceleration, l.jerk);
+  ASSERT_TRUE(stop.ok());
+  const double end = SegmentsEnd(*stop);
+  for (int i = 1; i <= 100; ++i) {
+    const Kinematics k = stop->At(end * (1 - 1e-3 * i / 100));
+    const std::string ctx = absl::StrCat("state ", Str(k));
+    const JerkVelocityProfile v = VelocityOrDie(k, -500, l);
+    ExpectWithinLimits(v, l, ctx + " velocity -500");
+    EXPECT_NEAR(MaxAccelerationTowards(v, -1), l.acceleration, 1e-6) << ctx;
+    const JerkProfile p = PlanOrDie(k, k.position - 300, l);
+    ExpectWithinLimits(p, l, ctx + " target behind");
+    EXPECT_NEAR(MaxAccelerationTowards(p, -1), l.acceleration, 1e-6) << ctx;
+  }
+}
+
+TEST(JerkProfileTest, Plan_AfterIntermediateStop_ReturnUsesTheFullAcceleration) {
+  // The return leg starts from rest exactly (no rounding residue of the old direction that
+  // would be taken for a reversal through v = 0 and limit the ramp to min(acc, dec)).
+  for (const double dir : {1.0, -1.0}) {
+    for (int i = 0; i < 20; ++i) {
+      const Kinematics start{0.1 * i, (300 + 37.3 * i) * dir, (-2000 + 211.7 * i) * dir};
+      const JerkProfile p = PlanOrDie(start, -400 * dir);
+      ASSERT_TRUE(p.intermediate_stop());
+      EXPECT_NEAR(MaxAccelerationTowards(p, -dir), kLimits.acceleration, 1e-6) << Str(start);
+    }
+  }
+}
+
+TEST(JerkProfileTest, Plan_StateAlreadyTurningRound_CrossesRestWithinBothLimits) {
+  // Moving away at 200 mm/s but accelerating towards the target so hard (0.9 x dec, small jerk)
+  // that the velocity turns anyway: no stop-and-swing-back; through v = 0 with |a| <= dec before
+  // and <= acc after the crossing (here dec < acc).
+  const JerkLimits l{1000, 10000, 5000, 20000};
+  for (const double dir : {1.0, -1.0}) {
+    const Kinematics start{0, -200 * dir, 4500 * dir};
+    const JerkProfile p = PlanOrDie(start, 300 * dir, l);
+    const std::string ctx = absl::StrCat("dir=", dir);
+    EXPECT_FALSE(p.intermediate_stop()) << ctx;
+    double a_at_change = 0;
+    EXPECT_EQ(VelocitySignChanges(p, &a_at_change), 1) << ctx;
+    ExpectWithinLimits(p, l, ctx);
+    const JerkVelocityProfile v = VelocityOrDie(start, 600 * dir, l);
+    EXPECT_EQ(VelocitySignChanges(v, &a_at_change), 1) << ctx;
+    ExpectWithinLimits(v, l, ctx + " velocity");
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Over-speed and over-limit starts
 
