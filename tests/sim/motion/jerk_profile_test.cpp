@@ -750,5 +750,24 @@ TEST(JerkProfilePropertyTest, RandomStartStates_ReachTargetWithinLimits) {
   }
 }
 
+// From rest, the S-curve is the time-optimal VA profile plus at most the time to ramp the
+// acceleration in and out: T_va <= T <= T_va + (acc + dec)/jerk, for random limits and moves.
+TEST(JerkProfilePropertyTest, RandomMovesFromRest_CostAtMostTheJerkRamps) {
+  std::mt19937_64 rng(2026);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 2000 && !HasFailure(); ++i) {
+    const JerkLimits l = RandomLimits(rng);
+    const double dist = std::pow(10.0, -3 + 7 * u(rng)) * (u(rng) < 0.5 ? -1 : 1);
+    const std::string ctx = absl::StrCat("limits ", Str(l), " distance ", dist);
+    auto p = JerkProfile::Plan({0, 0, 0}, dist, l);
+    auto va = VaProfile::Plan({0, 0, 0}, dist, {l.max_velocity, l.acceleration, l.deceleration});
+    ASSERT_TRUE(p.ok() && va.ok()) << ctx;
+    EXPECT_GE(p->duration(), va->duration() * (1 - 1e-9)) << ctx;
+    EXPECT_LE(p->duration(),
+              (va->duration() + (l.acceleration + l.deceleration) / l.jerk) * (1 + 1e-9))
+        << ctx;
+  }
+}
+
 }  // namespace
 }  // namespace drivegw::sim::motion
