@@ -130,10 +130,10 @@ struct SdoFrame {
   std::span<const uint8_t> bytes() const { return {data.data(), data_size}; }
 };
 
-// Decodes 8 bytes. Reserved bits (x) are ignored. InvalidArgument for a size other than 8
-// ("canopen sdo frame: 5 bytes, need 8"), cs 7, an expedited initiate with e = 1, s = 1 and data
-// over 4 bytes cannot happen (n is 2 bits), a segment with n > 7 cannot happen (3 bits); a
-// segmented initiate with e = 0, s = 0 is accepted (size unknown).
+// Decodes exactly 8 bytes; reserved bits (x) are ignored. InvalidArgument for another size
+// ("canopen sdo frame: 5 bytes, need 8") and for command specifier 7. A segmented initiate with
+// e = 0, s = 0 (size unknown) and an expedited one with s = 0 (all 4 bytes) are accepted
+// (decision 1102).
 absl::StatusOr<SdoFrame> DecodeSdo(std::span<const uint8_t> bytes, SdoDirection direction);
 // Encodes the meaningful fields with reserved bits 0; InvalidArgument for block commands (not
 // generated), data_size above 4 (expedited) or 7 (segment), or an expedited frame without data
