@@ -517,7 +517,13 @@ TEST_F(TrinamicDriveTest, SilentController_OfflineNamingDriveAndOpcode_ThenRecov
   Drive* d = Activate(Config());
   ASSERT_NE(d, nullptr);
   Enable(d);
+  auto running = d->Move(MoveAbsolute{1500, 3000, 30000, 0});
+  ASSERT_TRUE(running.ok()) << running.status();
   server_->SetSilent(true);
+  const CommandInfo lost = WaitFinal(d, running->id);
+  EXPECT_EQ(lost.state, CommandState::kError);
+  EXPECT_THAT(lost.message, HasSubstr("drive 'feeder-x': link lost"));
+  EXPECT_THAT(lost.message, HasSubstr("query_"));
   const DriveStatus off =
       WaitUntil(d, [](const DriveStatus& s) { return s.state == DriveState::kOffline; });
   ASSERT_EQ(off.state, DriveState::kOffline);
@@ -623,6 +629,28 @@ TEST_F(TrinamicDriveTest, NativeHardwareReset_ReappliedAfterBoot) {
       6000ms);
   EXPECT_EQ(s.state, DriveState::kDisabled);
   EXPECT_EQ(SimEventually<int>([](Controller& c) { return c.registers(0).vmax; }, 300), 300);
+}
+
+// Decision 1081: drives of one controller share a Pack; conflicting transport settings and a
+// second drive on the same motor are refused at activation.
+TEST_F(TrinamicDriveTest, SharedPack_ConflictingSettingsAndSameMotorRefused) {
+  StartSim();
+  Drive* x = Activate(Config("x", 0));
+  ASSERT_NE(x, nullptr);
+  DriveConfig other_baud = Config("y", 1);
+  other_baud.trinamic->serial->baud = 9600;
+  Drive* y = Make(other_baud);
+  ASSERT_NE(y, nullptr);
+  const absl::Status conflict = y->Activate();
+  EXPECT_EQ(conflict.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(conflict.message(), HasSubstr("trinamic.serial.baud"));
+  Drive* twin = Make(Config("x-twin", 0));
+  ASSERT_NE(twin, nullptr);
+  EXPECT_EQ(twin->Activate().code(), absl::StatusCode::kAlreadyExists);
+  // The first drive is unaffected.
+  Enable(x);
+  EXPECT_EQ(MoveDone(x, MoveAbsolute{321, 20000, 100000, 0}).state, CommandState::kDone);
+  EXPECT_EQ(SimPosition(0), 321);
 }
 
 TEST(TrinamicFactoryTest, ConfigErrors_NameTheField) {
