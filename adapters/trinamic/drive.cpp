@@ -448,6 +448,15 @@ absl::StatusOr<std::optional<Reply>> TrinamicDrive::SendWord(const Command& comm
   return r;
 }
 
+void TrinamicDrive::PollSoon() {
+  std::shared_ptr<Pack> pack;
+  {
+    std::lock_guard lock(mu_);
+    pack = pack_;
+  }
+  if (pack) pack->PollSoon(axis_);
+}
+
 absl::Status TrinamicDrive::SendAll(const std::vector<Command>& commands) {
   for (const Command& c : commands) {
     auto r = SendWord(c);
@@ -794,7 +803,7 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunMotion(const MotionCommand& cmd) {
       t.sent = sent;
       tracker_ = t;
     }
-    pack_->PollSoon(axis_);
+    PollSoon();
     return AwaitAcceptance(info.id, kind);
   }
 
@@ -875,7 +884,7 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunMotion(const MotionCommand& cmd) {
     t.sent = now;
     tracker_ = t;
   }
-  pack_->PollSoon(axis_);
+  PollSoon();
   return AwaitAcceptance(info.id, kind);
 }
 
@@ -908,7 +917,7 @@ absl::StatusOr<CommandInfo> TrinamicDrive::Home() {
     t.deadline = now + config().timeouts.homing;
     tracker_ = t;
   }
-  pack_->PollSoon(axis_);
+  PollSoon();
   return AwaitAcceptance(info.id, "Home");
 }
 
@@ -1014,7 +1023,7 @@ absl::StatusOr<std::vector<CommandInfo>> TrinamicDrive::MoveCoordinated(
         t->tracker_->sent = sent;
       }
     }
-    pack_->PollSoon(t->axis_);
+    t->PollSoon();
   }
   std::vector<CommandInfo> out;
   for (size_t i = 0; i < members.size(); ++i) {
@@ -1079,8 +1088,13 @@ absl::Status TrinamicDrive::WriteParameter(const ParameterRef& ref, int64_t valu
         if ((**r).values[m] != 0) active.push_back(std::to_string(m));
       }
     }
-    if (pack_) {
-      for (const auto& [n, s] : pack_->samples()) {
+    std::shared_ptr<Pack> pack;
+    {
+      std::lock_guard lock(mu_);
+      pack = pack_;
+    }
+    if (pack) {
+      for (const auto& [n, s] : pack->samples()) {
         const std::string mn = std::to_string(n);
         if (s.action != 0 && std::find(active.begin(), active.end(), mn) == active.end()) {
           active.push_back(mn);

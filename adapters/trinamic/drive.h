@@ -104,6 +104,7 @@ class TrinamicDrive final : public DriveBase, private PackListener {
   // One word through the Pack; errors name the drive and the opcode.
   absl::StatusOr<std::optional<Reply>> SendWord(const Command& command);
   absl::Status SendAll(const std::vector<Command>& commands);
+  void PollSoon();  // asks the Pack for this axis's next sample now
   Command Word(Opcode opcode, std::initializer_list<int64_t> values) const;
   absl::StatusOr<Command> CurrentsWord(bool on) const;
 
