@@ -476,12 +476,17 @@ void Pack::Run() {
     if (events || (apply && session_->link_state() == LinkState::kOnline)) {
       lock.unlock();
       DispatchEvents();
+      absl::Status applied = absl::OkStatus();
       if (apply && session_->link_state() == LinkState::kOnline) {
         std::lock_guard cb(cb_mu_);
-        (void)EnsureApplied();  // a failure leaves the flags set: retried next round
+        applied = EnsureApplied();  // a failure leaves the flags set: retried
       }
       lock.lock();
       if (stop_) break;
+      if (!applied.ok()) {
+        // Not faster than every 50 ms (the words failed on an ONLINE link: I/O trouble).
+        cv_.wait_for(lock, milliseconds(50), [&] { return stop_; });
+      }
     }
     // While OFFLINE the polls below reconnect through the session's probe and back-off.
     // Next due: the reset probe or the earliest axis.
