@@ -1,0 +1,358 @@
+// CANopen master runtime over one CanChannel: NMT commands, SDO client (one transfer per node at a
+// time, queued), PDO configuration and exchange, SYNC producer, heartbeat consumer, EMCY consumer
+// and bus fault handling, shared by every drive on the bus (one receive thread, node observers).
+// No drive family knowledge. Threading, queueing, heartbeat and SYNC choices: decisions
+// docs/decisions/1111-1119; the protocol itself is the pure library next to this file (CiA 301
+// v4.2.0).
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <shared_mutex>
+#include <span>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "adapters/canopen/emcy.h"
+#include "adapters/canopen/nmt.h"
+#include "adapters/canopen/pdo.h"
+#include "adapters/canopen/sdo.h"
+#include "adapters/core/clock.h"
+#include "adapters/core/drive_config.h"
+#include "adapters/transport/can_channel.h"
+
+namespace drivegw::canopen {
+
+struct MasterOptions {
+  // Per frame exchange: request sent → response received (decision 1103).
+  Duration sdo_timeout = kSdoDefaultTimeout;
+  size_t sdo_max_size = kSdoDefaultMaxSize;  // largest upload accepted (decision 1103)
+  // Back-off while the bus is off, down or the channel is broken: doubling from min to max
+  // (decision 1118).
+  Duration bus_retry_min = std::chrono::milliseconds(100);
+  Duration bus_retry_max = std::chrono::seconds(5);
+  // Time source of SDO deadlines and heartbeat supervision; must outlive the master. The SYNC
+  // producer always runs on the steady clock (decision 1116).
+  const Clock* clock = &SteadyClock::Instance();
+};
+
+// What a node observer is told besides heartbeats, EMCY and PDOs.
+enum class NodeEvent : uint8_t {
+  kHeartbeatLost,     // no heartbeat within the consumer time (1016h semantics, decision 1114)
+  kHeartbeatResumed,  // a heartbeat after kHeartbeatLost
+  kBootUp,            // boot-up message (00h): the node restarted and lost its configuration
+  kBusOff,            // the gateway's controller is bus-off (SocketCAN)
+  kLinkLost,          // the channel is down or broken; the master reopens it with back-off
+  kLinkRestored,      // the bus works again after kBusOff / kLinkLost
+};
+// "heartbeat_lost", "heartbeat_resumed", "boot_up", "bus_off", "link_lost", "link_restored".
+const char* NodeEventName(NodeEvent event);
+
+struct NodeEventInfo {
+  NodeEvent event = NodeEvent::kBootUp;
+  uint8_t node = 0;
+  TimePoint at{};
+  std::string reason;  // for logs and the drive's error text
+};
+
+struct EmcyEvent {
+  Emcy emcy;
+  std::string name;  // EmcyCodeName: "EMCY 0x8611 following error"
+  TimePoint at{};
+};
+
+struct TpdoEvent {
+  uint8_t node = 0;
+  uint16_t number = 1;  // TPDO 1..512
+  uint16_t cob_id = 0;
+  uint8_t size = 0;
+  std::array<uint8_t, 8> data{};
+  TimePoint at{};  // receive time (the master's clock)
+  std::span<const uint8_t> payload() const { return {data.data(), size}; }
+};
+
+// A drive's view of its node. Every method is called on the master's receive thread without the
+// master's lock held, one notification after the other: implementations must be quick (no
+// blocking I/O, no waiting on other threads). They may call the non-blocking methods (SendRpdo,
+// SendNmt, counters, node_state, Add/RemoveNodeObserver); the blocking SDO methods refuse to run
+// on the receive thread (FailedPrecondition) because that thread delivers their answers.
+class NodeObserver {
+ public:
+  virtual ~NodeObserver() = default;
+  // Every heartbeat (not boot-up) of the node, with the NMT state it reports.
+  virtual void OnHeartbeat(uint8_t /*node*/, NmtState /*state*/, TimePoint /*at*/) noexcept {}
+  // The node's boot-up message (event kBootUp): re-configure it before using it again.
+  virtual void OnBootUp(const NodeEventInfo& /*event*/) noexcept {}
+  virtual void OnEmcy(const EmcyEvent& /*event*/) noexcept {}
+  virtual void OnTpdo(const TpdoEvent& /*event*/) noexcept {}
+  // kHeartbeatLost / kHeartbeatResumed of this node; kBusOff / kLinkLost / kLinkRestored go to
+  // every observer.
+  virtual void OnLinkEvent(const NodeEventInfo& /*event*/) noexcept {}
+};
+
+struct SyncEvent {
+  uint8_t counter = 0;  // 1..overflow, 0 without counter (1019h = 0)
+  TimePoint sent{};     // steady clock, right after the frame was handed to the channel
+};
+// Called on the SYNC thread right after each SYNC left (quick, like NodeObserver).
+using SyncListener = std::function<void(const SyncEvent&)>;
+
+// 1029h sub 1 "communication error" values (CiA 301 v4.2.0 §7.5.2.32).
+enum class ErrorBehaviour : uint8_t {
+  kPreOperational = 0,  // change to pre-operational (only from operational)
+  kNoChange = 1,
+  kStopped = 2,
+};
+
+struct MasterCounters {
+  uint64_t frames_in = 0;    // every frame the channel returned
+  uint64_t frames_out = 0;   // every frame handed to the channel successfully
+  uint64_t send_errors = 0;  // Send failures
+  uint64_t receive_errors = 0;
+  uint64_t other_traffic = 0;  // frames for nobody here (other masters, nodes' SDO requests, ...)
+  uint64_t malformed = 0;      // EMCY / heartbeat frames that do not decode
+  uint64_t nmt_sent = 0;
+  uint64_t sdo_transfers = 0;        // completed successfully
+  uint64_t sdo_failures = 0;         // completed with an error (any cause)
+  uint64_t sdo_aborts_received = 0;  // server aborts
+  uint64_t sdo_aborts_sent = 0;      // our abort frames (protocol violation, timeout, deadline)
+  uint64_t sdo_timeouts = 0;         // per-frame time-outs and caller deadlines
+  uint64_t sdo_unexpected = 0;       // SDO responses while no transfer of the node was running
+  uint64_t sdo_queued_max = 0;       // most transfers waiting behind one node's active one
+  uint64_t rpdo_sent = 0;
+  uint64_t tpdo_received = 0;
+  uint64_t sync_sent = 0;
+  uint64_t sync_send_errors = 0;
+  uint64_t sync_overruns = 0;         // periods skipped because the timer woke too late
+  Duration sync_last_period_error{};  // |interval between the last two SYNCs - period|
+  Duration sync_max_period_error{};   // the largest since StartSync
+  uint64_t heartbeats = 0;
+  uint64_t heartbeat_lost = 0;
+  uint64_t emcy = 0;
+  uint64_t bootups = 0;
+  uint64_t bus_off_events = 0;
+  uint64_t link_lost_events = 0;
+  uint64_t reopens = 0;  // channels reopened after a failure
+};
+
+using ObserverId = uint64_t;
+using SyncListenerId = uint64_t;
+
+class CanopenMaster {
+ public:
+  using Reopen = std::function<absl::StatusOr<std::unique_ptr<transport::CanChannel>>()>;
+
+  // Opens the bus `bus` selects (transport::OpenCanChannel) and starts the receive thread; a
+  // broken channel is reopened the same way.
+  static absl::StatusOr<std::shared_ptr<CanopenMaster>> Open(const CanBusConfig& bus,
+                                                             const MasterOptions& options = {});
+  // The same on a channel the caller opened (tests inject faults through it); `reopen` (may be
+  // empty: keep using `channel`) replaces a channel whose Receive failed.
+  static absl::StatusOr<std::shared_ptr<CanopenMaster>> Open(
+      std::unique_ptr<transport::CanChannel> channel, const MasterOptions& options = {},
+      Reopen reopen = nullptr);
+  ~CanopenMaster();
+  CanopenMaster(const CanopenMaster&) = delete;
+  CanopenMaster& operator=(const CanopenMaster&) = delete;
+
+  // Stops SYNC and the receive thread; pending SDO transfers fail (Unavailable). Idempotent;
+  // no observer or listener runs once it returned.
+  void Stop();
+
+  // --- NMT (CiA 301 §7.2.8.3.1). node 0 = all nodes.
+  absl::Status SendNmt(NmtCommand command, uint8_t node);
+
+  // --- SDO client (blocking; not on the receive thread). `deadline` bounds the whole call
+  // including the wait behind other transfers of the node; each frame exchange is bounded by
+  // options.sdo_timeout. Errors name node and index:sub; server aborts carry the code
+  // (AbortCodeOf) and its name, time-outs are DeadlineExceeded after abort 0504 0000h was sent.
+  absl::StatusOr<std::vector<uint8_t>> Upload(uint8_t node, uint16_t index, uint8_t sub,
+                                              TimePoint deadline);
+  absl::Status Download(uint8_t node, uint16_t index, uint8_t sub, std::span<const uint8_t> data,
+                        TimePoint deadline);
+  // Typed little-endian access. Reads accept exactly the width, or more bytes when the extra
+  // ones are zero (an unsized expedited answer carries 4 bytes, decision 1112).
+  absl::StatusOr<uint8_t> ReadU8(uint8_t node, uint16_t index, uint8_t sub, TimePoint deadline);
+  absl::StatusOr<uint16_t> ReadU16(uint8_t node, uint16_t index, uint8_t sub, TimePoint deadline);
+  absl::StatusOr<uint32_t> ReadU32(uint8_t node, uint16_t index, uint8_t sub, TimePoint deadline);
+  absl::StatusOr<int32_t> ReadI32(uint8_t node, uint16_t index, uint8_t sub, TimePoint deadline);
+  absl::Status WriteU8(uint8_t node, uint16_t index, uint8_t sub, uint8_t value,
+                       TimePoint deadline);
+  absl::Status WriteU16(uint8_t node, uint16_t index, uint8_t sub, uint16_t value,
+                        TimePoint deadline);
+  absl::Status WriteU32(uint8_t node, uint16_t index, uint8_t sub, uint32_t value,
+                        TimePoint deadline);
+  absl::Status WriteI32(uint8_t node, uint16_t index, uint8_t sub, int32_t value,
+                        TimePoint deadline);
+
+  // --- PDO. Runs MappingWrites (decision 1107) as SDO downloads in order; the first failure
+  // stops it and names the step. Afterwards TPDO frames on the configured COB-ID reach the
+  // node's observers as (node, number), and SendRpdo uses the configured RPDO COB-ID.
+  absl::Status ConfigurePdo(uint8_t node, PdoKind kind, uint16_t number, const PdoCommParams& comm,
+                            std::span<const PdoMappingEntry> mapping, TimePoint deadline);
+  // One RPDO frame (payload 0..8 bytes) on the configured or predefined COB-ID. Non-blocking.
+  absl::Status SendRpdo(uint8_t node, uint16_t number, std::span<const uint8_t> payload);
+
+  // --- SYNC producer on its own steady-clock timer (decision 1116). counter_overflow: 0 = no
+  // counter byte, 2..240 = counter 1..overflow (1019h). Restarts when already running.
+  absl::Status StartSync(Duration period, uint8_t counter_overflow = 0);
+  void StopSync();
+  bool sync_running() const;
+  SyncListenerId AddSyncListener(SyncListener listener);
+  // When it returns the listener does not run and will not run again (unless called from the
+  // listener itself, which is allowed).
+  void RemoveSyncListener(SyncListenerId id);
+
+  // --- Heartbeat (decision 1114). The consumer time of `node` (1016h semantics): supervision
+  // starts with the first heartbeat; zero turns it off.
+  absl::Status SetHeartbeatConsumer(uint8_t node, Duration consumer_time);
+  // Writes the node's producer time 1017h and reads it back (FailedPrecondition on a mismatch).
+  absl::Status ConfigureHeartbeatProducer(uint8_t node, uint16_t period_ms, TimePoint deadline);
+  // Writes 1029h sub `sub` (1 = communication error: bus-off, heartbeat/guarding loss).
+  absl::Status ConfigureErrorBehaviour(uint8_t node, ErrorBehaviour behaviour, TimePoint deadline,
+                                       uint8_t sub = 1);
+  // The last NMT state the node reported (heartbeat or boot-up), if any.
+  std::optional<NmtState> node_state(uint8_t node) const;
+
+  // --- Observers. When RemoveNodeObserver returns, the observer is not called any more (also
+  // from inside a callback).
+  absl::StatusOr<ObserverId> AddNodeObserver(uint8_t node, NodeObserver* observer);
+  void RemoveNodeObserver(ObserverId id);
+
+  // Makes the receive thread re-read the clock now (a ManualClock moved).
+  void Wake();
+
+  MasterCounters counters() const;
+  std::string bus_name() const;
+  bool link_up() const;
+
+ private:
+  struct SdoRequest {
+    explicit SdoRequest(SdoClientTransfer t) : transfer(std::move(t)) {}
+    SdoClientTransfer transfer;
+    std::string context;         // "sdo upload 0x6041:00 node 5"
+    TimePoint deadline{};        // the caller's
+    TimePoint frame_deadline{};  // the current exchange's
+    bool started = false;
+    bool done = false;
+    absl::StatusOr<std::vector<uint8_t>> result = std::vector<uint8_t>();
+    std::condition_variable cv;
+  };
+  struct Heartbeat {
+    Duration consumer_time{};  // zero: not supervised
+    enum class State : uint8_t { kWaiting, kAlive, kLost } state = State::kWaiting;
+    TimePoint last{};
+  };
+  struct Node {
+    std::deque<std::shared_ptr<SdoRequest>> sdo;  // front: active once started
+    Heartbeat heartbeat;
+    std::optional<NmtState> nmt;
+  };
+  struct Notification {
+    enum class Kind : uint8_t { kHeartbeat, kBootUp, kEmcy, kTpdo, kLink } kind = Kind::kLink;
+    uint8_t node = 0;  // 0: every observer
+    NmtState state = NmtState::kBootUp;
+    NodeEventInfo event;
+    EmcyEvent emcy;
+    TpdoEvent tpdo;
+  };
+  struct Observer {
+    uint8_t node = 0;
+    NodeObserver* observer = nullptr;
+  };
+  enum class BusFault : uint8_t { kNone, kBusOff, kDown, kBroken };
+
+  CanopenMaster(std::unique_ptr<transport::CanChannel> channel, const MasterOptions& options,
+                Reopen reopen);
+  void Run();
+  Duration ServiceLocked(TimePoint now);
+  void HandleFrameLocked(const transport::CanFrame& frame, TimePoint now);
+  void HandleSdoResponseLocked(uint8_t node, const transport::CanFrame& frame, TimePoint now);
+  void HandleErrorControlLocked(const transport::CanFrame& frame, TimePoint now);
+  void HandleEmcyLocked(const transport::CanFrame& frame, TimePoint now);
+  void HandleTpdoLocked(uint8_t node, uint16_t number, const transport::CanFrame& frame,
+                        TimePoint now);
+  void CheckBusStateLocked(TimePoint now);
+  void BusFaultLocked(BusFault fault, const std::string& reason, TimePoint now);
+  void BusRestoredLocked(TimePoint now);
+  void Dispatch();
+
+  // SDO plumbing (master_sdo.cpp).
+  absl::StatusOr<std::vector<uint8_t>> Transfer(uint8_t node, SdoClientTransfer transfer,
+                                                TimePoint deadline);
+  void ApplySdoStepLocked(Node& n, SdoStep step, TimePoint now);
+  // Expires queued and active transfers; returns the node's next SDO deadline (or `next`).
+  TimePoint ServiceSdoLocked(Node& n, TimePoint now, TimePoint next);
+  void PumpSdoLocked(Node& n, TimePoint now);
+  void CompleteSdoLocked(Node& n, absl::StatusOr<std::vector<uint8_t>> result);
+  void FailAllSdoLocked(const absl::Status& status);
+  absl::StatusOr<uint64_t> ReadUnsigned(uint8_t node, uint16_t index, uint8_t sub, size_t bytes,
+                                        const char* type, TimePoint deadline);
+
+  // SYNC producer (master_sync.cpp).
+  void RunSync(Duration period, uint8_t overflow);
+
+  // Any thread, with or without mu_ (lock order: mu_, then channel_mu_).
+  absl::Status SendFrame(const transport::CanFrame& frame);
+  void WakeReceiver();
+  bool OnReceiveThread() const { return std::this_thread::get_id() == receive_thread_id_.load(); }
+  bool HasObserverLocked(uint8_t node) const;
+
+  const MasterOptions options_;
+  const Clock& clock_;
+  const Reopen reopen_;
+
+  // The channel: only the receive thread replaces it (exclusive lock); senders hold it shared.
+  mutable std::shared_mutex channel_mu_;
+  std::unique_ptr<transport::CanChannel> channel_;
+  std::string bus_name_;
+
+  mutable std::mutex mu_;  // everything below
+  std::condition_variable stop_cv_;
+  bool stopping_ = false;
+  BusFault fault_ = BusFault::kNone;
+  Duration backoff_{};
+  TimePoint planned_wake_{};
+  std::map<uint8_t, Node> nodes_;
+  std::map<ObserverId, Observer> observers_;
+  ObserverId next_observer_ = 1;
+  std::map<std::pair<uint8_t, uint16_t>, uint16_t> rpdo_cob_;     // (node, n) → COB-ID, 0 invalid
+  std::map<std::pair<uint8_t, uint16_t>, uint16_t> tpdo_cob_;     // configured; 0 = invalid
+  std::map<uint16_t, std::pair<uint8_t, uint16_t>> tpdo_by_cob_;  // configured and valid
+  std::vector<Notification> pending_;  // filled under mu_, delivered by Dispatch
+  MasterCounters counters_;            // except frames_out / send_errors
+  std::atomic<uint64_t> frames_out_{0};
+  std::atomic<uint64_t> send_errors_{0};
+  std::atomic<std::thread::id> receive_thread_id_{};
+
+  std::mutex dispatch_mu_;  // held by the receive thread while it delivers notifications
+
+  // SYNC producer.
+  mutable std::mutex sync_mu_;  // the thread handle and the listeners
+  std::condition_variable sync_cv_;
+  bool sync_stop_ = false;
+  std::thread sync_thread_;
+  std::map<SyncListenerId, SyncListener> sync_listeners_;
+  SyncListenerId next_sync_listener_ = 1;
+  std::mutex sync_dispatch_mu_;  // held by the SYNC thread while it calls listeners
+  std::atomic<std::thread::id> sync_thread_id_{};
+  std::mutex sync_control_mu_;  // serialises StartSync / StopSync
+
+  std::mutex stop_mu_;
+  std::thread thread_;
+};
+
+}  // namespace drivegw::canopen

@@ -1,0 +1,396 @@
+// CanopenMaster SDO client: one transfer per node at a time, the others queued in call order
+// (CiA 301 v4.2.0 §7.2.4.1: one SDO channel per client/server pair; decision 1112), per-exchange
+// time-outs with abort 0504 0000h (decision 1103), typed helpers and PDO configuration.
+#include <algorithm>
+#include <utility>
+
+#include "absl/strings/cord.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "adapters/canopen/cob_id.h"
+#include "adapters/canopen/master.h"
+#include "adapters/core/log.h"
+
+namespace drivegw::canopen {
+namespace {
+
+int64_t Ms(Duration d) { return std::chrono::duration_cast<std::chrono::milliseconds>(d).count(); }
+
+std::string Describe(const SdoClientTransfer& t, uint8_t node) {
+  return absl::StrFormat("sdo %s 0x%04X:%02X node %d",
+                         t.kind() == SdoTransferKind::kUpload ? "upload" : "download", t.index(),
+                         t.sub(), node);
+}
+
+// `status` with `prefix` in front of its message; code and payloads (the abort code) kept.
+absl::Status Annotate(const absl::Status& status, const std::string& prefix) {
+  absl::Status out(status.code(), absl::StrCat(prefix, ": ", status.message()));
+  status.ForEachPayload(
+      [&](absl::string_view url, const absl::Cord& payload) { out.SetPayload(url, payload); });
+  return out;
+}
+
+std::vector<uint8_t> LittleEndian(uint64_t value, size_t bytes) {
+  std::vector<uint8_t> out(bytes);
+  for (size_t i = 0; i < bytes; ++i) out[i] = static_cast<uint8_t>(value >> (8 * i));
+  return out;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Queue.
+
+absl::StatusOr<std::vector<uint8_t>> CanopenMaster::Transfer(uint8_t node,
+                                                             SdoClientTransfer transfer,
+                                                             TimePoint deadline) {
+  const std::string what = Describe(transfer, node);
+  if (OnReceiveThread()) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(what, ": called on the receive thread of ", bus_name_,
+                     " (from a NodeObserver callback), which delivers the answer"));
+  }
+  auto request = std::make_shared<SdoRequest>(std::move(transfer));
+  request->deadline = deadline;
+  request->context = what;
+  std::unique_lock lock(mu_);
+  if (stopping_) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(what, ": canopen master ", bus_name_, " stopped"));
+  }
+  if (fault_ != BusFault::kNone) {
+    return absl::UnavailableError(absl::StrCat(what, ": canopen bus ", bus_name_, " is ",
+                                               fault_ == BusFault::kBusOff ? "bus-off" : "down"));
+  }
+  Node& n = nodes_[node];
+  n.sdo.push_back(request);
+  counters_.sdo_queued_max =
+      std::max<uint64_t>(counters_.sdo_queued_max, static_cast<uint64_t>(n.sdo.size() - 1));
+  PumpSdoLocked(n, clock_.Now());
+  if (!request->done) {
+    const TimePoint next =
+        request->started ? std::min(request->frame_deadline, deadline) : deadline;
+    if (next < planned_wake_) {
+      planned_wake_ = next;
+      WakeReceiver();  // lock order mu_ → channel_mu_
+    }
+  }
+  request->cv.wait(lock, [&] { return request->done; });
+  return std::move(request->result);
+}
+
+void CanopenMaster::PumpSdoLocked(Node& n, TimePoint now) {
+  while (!n.sdo.empty()) {
+    SdoRequest& r = *n.sdo.front();
+    if (r.started) return;
+    if (now >= r.deadline) {
+      ++counters_.sdo_timeouts;
+      CompleteSdoLocked(
+          n,
+          Annotate(absl::DeadlineExceededError("the caller's deadline passed before the transfer"),
+                   r.context));
+      continue;
+    }
+    r.started = true;
+    const transport::CanFrame first = r.transfer.Start();
+    r.frame_deadline = now + options_.sdo_timeout;
+    if (absl::Status s = SendFrame(first); !s.ok()) {
+      CompleteSdoLocked(
+          n, absl::UnavailableError(absl::StrCat(r.context, ": send failed: ", s.message())));
+      continue;
+    }
+    return;
+  }
+}
+
+void CanopenMaster::CompleteSdoLocked(Node& n, absl::StatusOr<std::vector<uint8_t>> result) {
+  std::shared_ptr<SdoRequest> r = n.sdo.front();
+  n.sdo.pop_front();
+  if (result.ok()) {
+    ++counters_.sdo_transfers;
+  } else {
+    ++counters_.sdo_failures;
+  }
+  r->result = std::move(result);
+  r->done = true;
+  r->cv.notify_all();
+}
+
+void CanopenMaster::ApplySdoStepLocked(Node& n, SdoStep step, TimePoint now) {
+  switch (step.kind) {
+    case SdoStep::Kind::kIgnored:
+      ++counters_.sdo_unexpected;
+      return;
+    case SdoStep::Kind::kSend:
+      if (absl::Status s = SendFrame(*step.frame); !s.ok()) {
+        const std::string context = n.sdo.front()->context;
+        CompleteSdoLocked(
+            n, absl::UnavailableError(absl::StrCat(context, ": send failed: ", s.message())));
+        break;
+      }
+      n.sdo.front()->frame_deadline = now + options_.sdo_timeout;
+      return;
+    case SdoStep::Kind::kDone:
+      CompleteSdoLocked(n, std::move(step.data));
+      break;
+    case SdoStep::Kind::kFailed:
+      if (step.frame) {
+        ++counters_.sdo_aborts_sent;
+        SendFrame(*step.frame).IgnoreError();  // the transfer is over either way
+      } else {
+        ++counters_.sdo_aborts_received;
+      }
+      CompleteSdoLocked(n, std::move(step.status));
+      break;
+  }
+  PumpSdoLocked(n, now);
+}
+
+void CanopenMaster::HandleSdoResponseLocked(uint8_t node, const transport::CanFrame& frame,
+                                            TimePoint now) {
+  auto it = nodes_.find(node);
+  if (it == nodes_.end() || it->second.sdo.empty() || !it->second.sdo.front()->started) {
+    // Late (after its time-out), another client's, or a node answering nobody (decision 1112).
+    ++counters_.sdo_unexpected;
+    return;
+  }
+  Node& n = it->second;
+  SdoStep step = n.sdo.front()->transfer.OnFrame(frame);
+  if (step.kind == SdoStep::Kind::kFailed) {
+    log::Debug("canopen_sdo_failed",
+               log::Fields()
+                   .Add("bus", bus_name_)
+                   .Add("error", "\"" + std::string(step.status.message()) + "\""));
+  }
+  ApplySdoStepLocked(n, std::move(step), now);
+}
+
+TimePoint CanopenMaster::ServiceSdoLocked(Node& n, TimePoint now, TimePoint next) {
+  // Waiting transfers whose caller gave up leave the queue without touching the bus.
+  for (auto it = n.sdo.begin(); it != n.sdo.end();) {
+    SdoRequest& r = **it;
+    if (r.started || now < r.deadline) {
+      if (!r.started) next = std::min(next, r.deadline);
+      ++it;
+      continue;
+    }
+    const size_t ahead = static_cast<size_t>(it - n.sdo.begin());
+    ++counters_.sdo_timeouts;
+    ++counters_.sdo_failures;
+    r.result = absl::DeadlineExceededError(
+        absl::StrCat(r.context, ": the caller's deadline passed while waiting behind ", ahead,
+                     " transfer(s) of the node (one SDO channel per node, decision 1112)"));
+    r.done = true;
+    r.cv.notify_all();
+    it = n.sdo.erase(it);
+  }
+  if (n.sdo.empty() || !n.sdo.front()->started) return next;
+  SdoRequest& r = *n.sdo.front();
+  const bool caller = now >= r.deadline;
+  if (!caller && now < r.frame_deadline) return std::min({next, r.deadline, r.frame_deadline});
+  // CiA 301 §7.2.4.3.17: end the transfer with abort 0504 0000h so the server stops waiting.
+  SdoStep step = caller ? r.transfer.Cancel(SdoAbortCode::kTimeout) : r.transfer.Timeout();
+  ++counters_.sdo_timeouts;
+  ++counters_.sdo_aborts_sent;
+  if (step.frame) SendFrame(*step.frame).IgnoreError();
+  const std::string detail =
+      caller ? "the caller's deadline passed during the transfer"
+             : absl::StrCat("no response within ", Ms(options_.sdo_timeout), " ms");
+  // SdoAbortStatus maps 0504 0000h to DeadlineExceeded and keeps the code (decision 1104).
+  CompleteSdoLocked(n, SdoAbortStatus(SdoAbortCode::kTimeout,
+                                      absl::StrCat(r.context, ", ", detail, ": client aborted")));
+  PumpSdoLocked(n, now);
+  if (!n.sdo.empty() && n.sdo.front()->started) {
+    next = std::min({next, n.sdo.front()->deadline, n.sdo.front()->frame_deadline});
+  }
+  return next;
+}
+
+void CanopenMaster::FailAllSdoLocked(const absl::Status& status) {
+  for (auto& [id, n] : nodes_) {
+    while (!n.sdo.empty()) {
+      CompleteSdoLocked(n, Annotate(status, n.sdo.front()->context));
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Public SDO access.
+
+absl::StatusOr<std::vector<uint8_t>> CanopenMaster::Upload(uint8_t node, uint16_t index,
+                                                           uint8_t sub, TimePoint deadline) {
+  absl::StatusOr<SdoChannel> channel = DefaultSdoChannel(node);
+  if (!channel.ok()) return channel.status();
+  return Transfer(node, SdoClientTransfer::Upload(*channel, index, sub, options_.sdo_max_size),
+                  deadline);
+}
+
+absl::Status CanopenMaster::Download(uint8_t node, uint16_t index, uint8_t sub,
+                                     std::span<const uint8_t> data, TimePoint deadline) {
+  absl::StatusOr<SdoChannel> channel = DefaultSdoChannel(node);
+  if (!channel.ok()) return channel.status();
+  return Transfer(node,
+                  SdoClientTransfer::Download(*channel, index, sub,
+                                              std::vector<uint8_t>(data.begin(), data.end())),
+                  deadline)
+      .status();
+}
+
+absl::StatusOr<uint64_t> CanopenMaster::ReadUnsigned(uint8_t node, uint16_t index, uint8_t sub,
+                                                     size_t bytes, const char* type,
+                                                     TimePoint deadline) {
+  absl::StatusOr<std::vector<uint8_t>> data = Upload(node, index, sub, deadline);
+  if (!data.ok()) return data.status();
+  const std::string what = absl::StrFormat("sdo upload 0x%04X:%02X node %d", index, sub, node);
+  if (data->size() < bytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, ": ", data->size(), " byte(s), ", type, " needs ", bytes));
+  }
+  // An unsized expedited answer carries 4 bytes (decision 1102); zeros beyond the width are
+  // padding, anything else means the object is wider than the caller thinks (decision 1112).
+  for (size_t i = bytes; i < data->size(); ++i) {
+    if ((*data)[i] != 0) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          what, ": ", data->size(), " bytes with non-zero data beyond the ", bytes, " of ", type));
+    }
+  }
+  uint64_t value = 0;
+  for (size_t i = 0; i < bytes; ++i) value |= static_cast<uint64_t>((*data)[i]) << (8 * i);
+  return value;
+}
+
+absl::StatusOr<uint8_t> CanopenMaster::ReadU8(uint8_t node, uint16_t index, uint8_t sub,
+                                              TimePoint deadline) {
+  auto v = ReadUnsigned(node, index, sub, 1, "u8", deadline);
+  if (!v.ok()) return v.status();
+  return static_cast<uint8_t>(*v);
+}
+
+absl::StatusOr<uint16_t> CanopenMaster::ReadU16(uint8_t node, uint16_t index, uint8_t sub,
+                                                TimePoint deadline) {
+  auto v = ReadUnsigned(node, index, sub, 2, "u16", deadline);
+  if (!v.ok()) return v.status();
+  return static_cast<uint16_t>(*v);
+}
+
+absl::StatusOr<uint32_t> CanopenMaster::ReadU32(uint8_t node, uint16_t index, uint8_t sub,
+                                                TimePoint deadline) {
+  auto v = ReadUnsigned(node, index, sub, 4, "u32", deadline);
+  if (!v.ok()) return v.status();
+  return static_cast<uint32_t>(*v);
+}
+
+absl::StatusOr<int32_t> CanopenMaster::ReadI32(uint8_t node, uint16_t index, uint8_t sub,
+                                               TimePoint deadline) {
+  auto v = ReadUnsigned(node, index, sub, 4, "i32", deadline);
+  if (!v.ok()) return v.status();
+  return static_cast<int32_t>(static_cast<uint32_t>(*v));
+}
+
+absl::Status CanopenMaster::WriteU8(uint8_t node, uint16_t index, uint8_t sub, uint8_t value,
+                                    TimePoint deadline) {
+  return Download(node, index, sub, LittleEndian(value, 1), deadline);
+}
+
+absl::Status CanopenMaster::WriteU16(uint8_t node, uint16_t index, uint8_t sub, uint16_t value,
+                                     TimePoint deadline) {
+  return Download(node, index, sub, LittleEndian(value, 2), deadline);
+}
+
+absl::Status CanopenMaster::WriteU32(uint8_t node, uint16_t index, uint8_t sub, uint32_t value,
+                                     TimePoint deadline) {
+  return Download(node, index, sub, LittleEndian(value, 4), deadline);
+}
+
+absl::Status CanopenMaster::WriteI32(uint8_t node, uint16_t index, uint8_t sub, int32_t value,
+                                     TimePoint deadline) {
+  return Download(node, index, sub, LittleEndian(static_cast<uint32_t>(value), 4), deadline);
+}
+
+// ---------------------------------------------------------------------------------------------
+// PDO.
+
+absl::Status CanopenMaster::ConfigurePdo(uint8_t node, PdoKind kind, uint16_t number,
+                                         const PdoCommParams& comm,
+                                         std::span<const PdoMappingEntry> mapping,
+                                         TimePoint deadline) {
+  absl::StatusOr<std::vector<SdoWrite>> writes = MappingWrites(kind, number, node, comm, mapping);
+  if (!writes.ok()) return writes.status();
+  uint16_t cob = comm.cob_id;
+  if (cob == 0) {
+    absl::StatusOr<uint16_t> def = DefaultPdoCobId(kind, number, node);
+    if (!def.ok()) return def.status();
+    cob = *def;
+  }
+  const char* name = kind == PdoKind::kTpdo ? "tpdo" : "rpdo";
+  for (size_t i = 0; i < writes->size(); ++i) {
+    const SdoWrite& w = (*writes)[i];
+    if (absl::Status s = Download(node, w.index, w.sub, w.data, deadline); !s.ok()) {
+      // CiA 301 §7.2.2.4: the PDO stays invalid (bit 31 set by write 1) until the sequence ends.
+      return Annotate(s,
+                      absl::StrFormat("canopen configure %s%d of node %d, write %d of %d "
+                                      "(0x%04X:%02X)",
+                                      name, number, node, i + 1, writes->size(), w.index, w.sub));
+    }
+  }
+  std::lock_guard lock(mu_);
+  const std::pair<uint8_t, uint16_t> key{node, number};
+  if (kind == PdoKind::kTpdo) {
+    if (auto old = tpdo_cob_.find(key); old != tpdo_cob_.end() && old->second != 0) {
+      tpdo_by_cob_.erase(old->second);
+    }
+    tpdo_cob_[key] = comm.valid ? cob : 0;
+    if (comm.valid) tpdo_by_cob_[cob] = key;
+  } else {
+    rpdo_cob_[key] = comm.valid ? cob : 0;
+  }
+  log::Debug("canopen_pdo_configured", log::Fields()
+                                           .Add("bus", bus_name_)
+                                           .Add("node", static_cast<int>(node))
+                                           .Add("pdo", absl::StrCat(name, number))
+                                           .Add("cob_id", absl::StrFormat("0x%03X", cob))
+                                           .Add("valid", comm.valid));
+  return absl::OkStatus();
+}
+
+absl::Status CanopenMaster::SendRpdo(uint8_t node, uint16_t number,
+                                     std::span<const uint8_t> payload) {
+  const std::string what = absl::StrCat("canopen rpdo", number, " of node ", node);
+  if (absl::Status s = ValidateNodeId(node, "rpdo.node_id"); !s.ok()) return s;
+  if (number == 0 || number > kPdoMaxNumber) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, ": number ", number, " outside 1..", kPdoMaxNumber));
+  }
+  if (payload.size() > transport::kCanMaxDlc) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, ": ", payload.size(), " bytes exceed ", transport::kCanMaxDlc));
+  }
+  uint16_t cob = 0;
+  {
+    std::lock_guard lock(mu_);
+    if (auto it = rpdo_cob_.find({node, number}); it != rpdo_cob_.end()) {
+      if (it->second == 0) {
+        return absl::FailedPreconditionError(absl::StrCat(what, ": configured invalid"));
+      }
+      cob = it->second;
+    }
+  }
+  if (cob == 0) {
+    absl::StatusOr<uint16_t> def = DefaultPdoCobId(PdoKind::kRpdo, number, node);
+    if (!def.ok()) {
+      return absl::FailedPreconditionError(
+          absl::StrCat(what,
+                       ": no COB-ID (only RPDO 1..4 have a predefined one; ConfigurePdo "
+                       "first)"));
+    }
+    cob = *def;
+  }
+  if (absl::Status s = SendFrame(transport::MakeCanFrame(cob, payload)); !s.ok()) {
+    return absl::UnavailableError(absl::StrCat(what, ": ", s.message()));
+  }
+  std::lock_guard lock(mu_);
+  ++counters_.rpdo_sent;
+  return absl::OkStatus();
+}
+
+}  // namespace drivegw::canopen
