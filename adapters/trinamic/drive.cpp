@@ -769,18 +769,32 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunMotion(const MotionCommand& cmd) {
                : posact;
   }
   if (const auto* s = std::get_if<StopMotion>(&cmd)) {
-    const double d =
-        s->deceleration_mm_s2 == 0 ? axis.max_acceleration_mm_s2 : s->deceleration_mm_s2;
-    int vmax = 0;
+    // Decision 1088: deceleration 0 keeps the running amax; a given one becomes `$14.amax`,
+    // clamped to the PACK's limit (vstart x 64, L556) — a Stop never fails for being too hard.
+    const double d = s->deceleration_mm_s2;
+    if (!std::isfinite(d) || d < 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("stop.deceleration_mm_s2: ", Num(d), " must not be negative"));
+    }
+    Ramp ramp;
     {
       std::lock_guard lock(mu_);
-      vmax = static_cast<int>(shadow_.Get(Opcode::kSetRamp, "vmax"));
+      ramp.vmax = static_cast<int>(shadow_.Get(Opcode::kSetRamp, "vmax"));
+      ramp.amax = static_cast<int>(shadow_.Get(Opcode::kSetRamp, "amax"));
     }
-    DGW_RETURN_IF_ERROR(CheckLimit("stop.deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
-                                   "axis.max_acceleration_mm_s2"));
-    Ramp ramp;
-    DGW_ASSIGN_OR_RETURN(ramp.amax, AmaxFor("stop.deceleration_mm_s2", d));
-    ramp.vmax = vmax;  // a stop keeps vmax; only amax (the deceleration) changes
+    if (d > 0) {
+      const VelocityScale scale{shadow_.clkdiv(), shadow_.div()};
+      auto amax = MmPerSecond2ToAmax(d, scale, mpu_);
+      const int64_t limit = std::min<int64_t>(
+          32767, std::max<int64_t>(1, shadow_.Get(Opcode::kStartingVelocity, "vstart")) * 64);
+      if (amax.ok()) {
+        ramp.amax = static_cast<int>(std::min<int64_t>(*amax, limit));
+      } else {
+        // Below one amax unit: the gentlest ramp; above 32767: the hardest allowed.
+        auto one = AmaxToMmPerSecond2(1, scale, mpu_);
+        ramp.amax = (one.ok() && d < *one) ? 1 : static_cast<int>(limit);
+      }
+    }
     const CommandInfo info = StartCommand(kind, true);
     {
       std::lock_guard lock(mu_);

@@ -328,6 +328,22 @@ TEST_F(TrinamicDriveTest, MoveCoordinated_TwoAxes_EndTogetherAtTargets) {
   auto r = x->MoveCoordinated(CoordinatedMove{{1000, 2000}, 10000, 60000}, group);
   ASSERT_TRUE(r.ok()) << r.status();
   ASSERT_EQ(r->size(), 2u);
+  // CT-31 through introspection: both motors share one action and pos1 = 2 x pos0 (±2) at every
+  // observation until both stand.
+  bool together = true;
+  bool on_line = true;
+  const auto until = std::chrono::steady_clock::now() + 3s;
+  for (bool moving = true; moving && std::chrono::steady_clock::now() < until;) {
+    server_->WithController([&](Controller& c) {
+      together = together && c.state(0).action == c.state(1).action;
+      on_line = on_line && std::abs(c.state(1).position - 2 * c.state(0).position) <= 2;
+      moving = c.state(0).action != sim::trinamic::Action::kInactive ||
+               c.state(1).action != sim::trinamic::Action::kInactive;
+    });
+    std::this_thread::yield();
+  }
+  EXPECT_TRUE(together);
+  EXPECT_TRUE(on_line);
   EXPECT_EQ(WaitFinal(x, (*r)[0].id).state, CommandState::kDone);
   EXPECT_EQ(WaitFinal(y, (*r)[1].id).state, CommandState::kDone);
   EXPECT_EQ(SimPosition(0), 1000);
