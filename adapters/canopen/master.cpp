@@ -106,11 +106,15 @@ CanopenMaster::~CanopenMaster() { Stop(); }
 
 void CanopenMaster::Stop() {
   std::lock_guard stop_lock(stop_mu_);
-  StopSync();
   {
     std::lock_guard lock(mu_);
     stopping_ = true;
     stop_cv_.notify_all();
+  }
+  {
+    // StartSync checks stopping_ under the same mutex, so no SYNC thread starts after this.
+    std::lock_guard control(sync_control_mu_);
+    StopSync();
   }
   WakeReceiver();
   if (thread_.joinable()) {

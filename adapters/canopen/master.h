@@ -169,7 +169,8 @@ class CanopenMaster {
   CanopenMaster& operator=(const CanopenMaster&) = delete;
 
   // Stops SYNC and the receive thread; pending SDO transfers fail (Unavailable). Idempotent;
-  // no observer or listener runs once it returned.
+  // no observer or listener runs once it returned. Never from a callback or listener (it joins
+  // their threads), so never drop the last shared_ptr there either.
   void Stop();
 
   // --- NMT (CiA 301 §7.2.8.3.1). node 0 = all nodes.
@@ -228,7 +229,8 @@ class CanopenMaster {
   std::optional<NmtState> node_state(uint8_t node) const;
 
   // --- Observers. When RemoveNodeObserver returns, the observer is not called any more (also
-  // from inside a callback).
+  // from inside a callback). Off the receive thread it waits for a delivery in progress: do not
+  // call it while holding a lock the observer's callbacks take.
   absl::StatusOr<ObserverId> AddNodeObserver(uint8_t node, NodeObserver* observer);
   void RemoveNodeObserver(ObserverId id);
 

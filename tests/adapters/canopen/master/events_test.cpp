@@ -80,9 +80,8 @@ TEST(CanopenMasterHeartbeat, LostResumedAndBootUp) {
   // After a boot-up supervision waits for the next heartbeat (decision 1114).
   b.clock.Advance(10s);
   b.Barrier();
-  EXPECT_THAT(b.observer.events(),
-              ElementsAre(NodeEvent::kHeartbeatLost, NodeEvent::kHeartbeatResumed,
-                          NodeEvent::kBootUp));
+  EXPECT_THAT(b.observer.events(), ElementsAre(NodeEvent::kHeartbeatLost,
+                                               NodeEvent::kHeartbeatResumed, NodeEvent::kBootUp));
   b.node->SendHeartbeat(NmtState::kPreOperational);
   ASSERT_TRUE(WaitFor([&] { return b.observer.heartbeats() == 3; }));
   b.clock.Advance(301ms);
@@ -173,12 +172,13 @@ TEST(CanopenMasterBus, ReceiveFailureReopensAndNotifiesEveryObserver) {
   MasterOptions o;
   o.bus_retry_min = 5ms;
   o.bus_retry_max = 20ms;
-  auto m = CanopenMaster::Open(std::make_unique<FaultyChannel>(*std::move(first), faults), o,
-                               [bus, faults]() -> absl::StatusOr<std::unique_ptr<transport::CanChannel>> {
-                                 auto c = transport::OpenCanChannel(bus);
-                                 if (!c.ok()) return c.status();
-                                 return std::make_unique<FaultyChannel>(*std::move(c), faults);
-                               });
+  auto m = CanopenMaster::Open(
+      std::make_unique<FaultyChannel>(*std::move(first), faults), o,
+      [bus, faults]() -> absl::StatusOr<std::unique_ptr<transport::CanChannel>> {
+        auto c = transport::OpenCanChannel(bus);
+        if (!c.ok()) return c.status();
+        return std::make_unique<FaultyChannel>(*std::move(c), faults);
+      });
   ASSERT_TRUE(m.ok());
   CanopenMaster& master = **m;
   RecordingObserver a, b;
@@ -187,7 +187,8 @@ TEST(CanopenMasterBus, ReceiveFailureReopensAndNotifiesEveryObserver) {
 
   faults->fail_receive = true;
   master.Wake();
-  ASSERT_TRUE(WaitFor([&] { return a.HasEvent(NodeEvent::kLinkLost) && b.HasEvent(NodeEvent::kLinkLost); }));
+  ASSERT_TRUE(WaitFor(
+      [&] { return a.HasEvent(NodeEvent::kLinkLost) && b.HasEvent(NodeEvent::kLinkLost); }));
   EXPECT_FALSE(master.link_up());
   EXPECT_EQ(b.infos()[0].node, 6);
   EXPECT_THAT(a.infos()[0].reason, HasSubstr("injected receive failure"));
@@ -235,8 +236,7 @@ TEST(CanopenMasterBus, BusOffFailsTheRunningTransferAndRecovers) {
   EXPECT_THAT(r.status().message(), HasSubstr("sdo upload 0x6041:00 node 5"));
   EXPECT_THAT(r.status().message(), HasSubstr("bus-off"));
   ASSERT_TRUE(WaitFor([&] { return a.HasEvent(NodeEvent::kBusOff); }));
-  EXPECT_EQ(master.SendRpdo(5, 1, std::vector<uint8_t>{1}).code(),
-            absl::StatusCode::kUnavailable);
+  EXPECT_EQ(master.SendRpdo(5, 1, std::vector<uint8_t>{1}).code(), absl::StatusCode::kUnavailable);
 
   faults->state = -1;
   master.Wake();

@@ -43,8 +43,7 @@ TEST(CanopenMasterPdo, ConfigureTpdoSendsTheExactSequenceAndDeliversTpdos) {
   comm.transmission_type = 1;  // every SYNC
   comm.inhibit_time_100us = 10;
   comm.event_timer_ms = 0;
-  ASSERT_TRUE(
-      b.master->ConfigurePdo(5, PdoKind::kTpdo, 1, comm, kStatusAndPosition, Far()).ok());
+  ASSERT_TRUE(b.master->ConfigurePdo(5, PdoKind::kTpdo, 1, comm, kStatusAndPosition, Far()).ok());
   auto expected = MappingWrites(PdoKind::kTpdo, 1, 5, comm, kStatusAndPosition);
   ASSERT_TRUE(expected.ok());
   EXPECT_EQ(b.node->writes(), *expected);
@@ -61,8 +60,8 @@ TEST(CanopenMasterPdo, ConfigureTpdoSendsTheExactSequenceAndDeliversTpdos) {
   EXPECT_EQ(e.node, 5);
   EXPECT_EQ(e.number, 1);
   EXPECT_EQ(e.cob_id, 0x185);
-  auto decoded = UnpackPdo(kStatusAndPosition, std::vector{PdoType::kU16, PdoType::kI32},
-                           e.payload());
+  auto decoded =
+      UnpackPdo(kStatusAndPosition, std::vector{PdoType::kU16, PdoType::kI32}, e.payload());
   ASSERT_TRUE(decoded.ok());
   EXPECT_EQ(*decoded, values);
   EXPECT_EQ(b.master->counters().tpdo_received, 1u);
@@ -93,7 +92,8 @@ TEST(CanopenMasterPdo, ConfigureFailureNamesTheStepAndTheAbort) {
   absl::Status s =
       b.master->ConfigurePdo(5, PdoKind::kTpdo, 1, PdoCommParams{}, kStatusAndPosition, Far());
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(s.message(), HasSubstr("canopen configure tpdo1 of node 5, write 3 of 9 (0x1A00:01)"));
+  EXPECT_THAT(s.message(),
+              HasSubstr("canopen configure tpdo1 of node 5, write 3 of 9 (0x1A00:01)"));
   EXPECT_THAT(s.message(), HasSubstr("SDO abort 0x06040041"));
   EXPECT_EQ(AbortCodeOf(s), SdoAbortCode::kNotMappable);
   // Stopped at the failing write: COB-ID invalidated, count 0, nothing after.

@@ -124,8 +124,7 @@ TEST(CanopenMasterSdo, ServerAbortCarriesTheCodeName) {
 
   absl::Status range = b.master->WriteI32(5, 0x607A, 0, 1 << 30, Far());
   EXPECT_EQ(range.code(), absl::StatusCode::kOutOfRange);
-  EXPECT_THAT(range.message(),
-              HasSubstr("SDO abort 0x06090030 value range of parameter exceeded"));
+  EXPECT_THAT(range.message(), HasSubstr("SDO abort 0x06090030 value range of parameter exceeded"));
 
   auto missing = b.master->Upload(5, 0x5FFF, 3, Far());
   EXPECT_EQ(missing.status().code(), absl::StatusCode::kNotFound);
@@ -240,7 +239,7 @@ TEST(CanopenMasterSdo, ForeignAndWrongNodeFramesAreIgnored) {
   const std::vector<uint8_t> short_frame = {0x4B, 0x41, 0x60, 0x00, 0xFF};
   ASSERT_TRUE((*other)->Send(transport::MakeCanFrame(0x586, wrong_node)).ok());   // node 6
   ASSERT_TRUE((*other)->Send(transport::MakeCanFrame(0x585, short_frame)).ok());  // DLC 5
-  ASSERT_TRUE((*other)->Send(transport::MakeCanFrame(0x205, wrong_node)).ok());  // an RPDO
+  ASSERT_TRUE((*other)->Send(transport::MakeCanFrame(0x205, wrong_node)).ok());   // an RPDO
   ASSERT_TRUE(WaitFor([&] { return b.master->counters().sdo_unexpected >= 2; }));
   b.node().Release();
   t.join();
@@ -269,8 +268,8 @@ TEST(CanopenMasterSdo, TwoNodesConcurrentlyAndQueuedPerNode) {
             if (!v.ok() || *v != (0x0200 | id)) ++bad;
           } else {
             auto s = b.master->Upload(id, 0x1008, 0, Far());
-            if (!s.ok() || std::string(s->begin(), s->end()) !=
-                               "node " + std::to_string(id) + " long name") {
+            if (!s.ok() ||
+                std::string(s->begin(), s->end()) != "node " + std::to_string(id) + " long name") {
               ++bad;
             }
             std::vector<uint8_t> data(9, static_cast<uint8_t>(i));

@@ -32,9 +32,7 @@ std::unique_ptr<TestNode> TestNode::Start(const CanBusConfig& bus, uint8_t node)
 }
 
 TestNode::TestNode(std::unique_ptr<transport::CanChannel> channel, uint8_t node)
-    : channel_(std::move(channel)),
-      node_(node),
-      server_(*DefaultSdoChannel(node), *this) {}
+    : channel_(std::move(channel)), node_(node), server_(*DefaultSdoChannel(node), *this) {}
 
 TestNode::~TestNode() {
   stop_ = true;
