@@ -264,6 +264,7 @@ void MotionCore::Integrate() {
         set_.acceleration = (v - previous_velocity) / step;
         set_.velocity = v;
         set_.position += v * step;
+        velocity_target_ = v;
         break;
       }
       case Drive::kCyclicSpeed: StepCyclicSpeed(); break;
