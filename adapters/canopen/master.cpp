@@ -283,7 +283,7 @@ void CanopenMaster::Run() {
       lock.unlock();
       Dispatch();
       lock.lock();
-      // A broken channel fails at once: wait out the back-off instead of spinning (1118).
+      // A broken channel fails at once: wait out the back-off instead of spinning (decision 1117).
       const Duration pause = backoff_;
       backoff_ = std::min(backoff_ * 2, options_.bus_retry_max);
       if (stop_cv_.wait_for(lock, pause, [&] { return stopping_; })) break;
@@ -557,7 +557,7 @@ absl::Status CanopenMaster::SetHeartbeatConsumer(uint8_t node, Duration consumer
 
 absl::Status CanopenMaster::ConfigureHeartbeatProducer(uint8_t node, uint16_t period_ms,
                                                        TimePoint deadline) {
-  // CiA 301 §7.5.2.21: 1017h u16 producer heartbeat time in ms, 0 = off.
+  // CiA 301 §7.5.2.20: 1017h u16 producer heartbeat time in ms, 0 = off.
   if (absl::Status s = WriteU16(node, 0x1017, 0, period_ms, deadline); !s.ok()) return s;
   absl::StatusOr<uint16_t> back = ReadU16(node, 0x1017, 0, deadline);
   if (!back.ok()) return back.status();

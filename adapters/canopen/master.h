@@ -41,7 +41,7 @@ struct MasterOptions {
   Duration sdo_timeout = kSdoDefaultTimeout;
   size_t sdo_max_size = kSdoDefaultMaxSize;  // largest upload accepted (decision 1103)
   // Back-off while the bus is off, down or the channel is broken: doubling from min to max
-  // (decision 1118).
+  // (decision 1117).
   Duration bus_retry_min = std::chrono::milliseconds(100);
   Duration bus_retry_max = std::chrono::seconds(5);
   // Time source of SDO deadlines and heartbeat supervision; must outlive the master. The SYNC
@@ -199,9 +199,9 @@ class CanopenMaster {
   absl::Status WriteI32(uint8_t node, uint16_t index, uint8_t sub, int32_t value,
                         TimePoint deadline);
 
-  // --- PDO. Runs MappingWrites (decision 1107) as SDO downloads in order; the first failure
-  // stops it and names the step. Afterwards TPDO frames on the configured COB-ID reach the
-  // node's observers as (node, number), and SendRpdo uses the configured RPDO COB-ID.
+  // --- PDO (decision 1113). Runs MappingWrites (decision 1107) as SDO downloads in order; the
+  // first failure stops it and names the step. Afterwards TPDO frames on the configured COB-ID
+  // reach the node's observers as (node, number), and SendRpdo uses the configured RPDO COB-ID.
   absl::Status ConfigurePdo(uint8_t node, PdoKind kind, uint16_t number, const PdoCommParams& comm,
                             std::span<const PdoMappingEntry> mapping, TimePoint deadline);
   // One RPDO frame (payload 0..8 bytes) on the configured or predefined COB-ID. Non-blocking.
