@@ -374,7 +374,7 @@ void SlaveNode::RaiseEmcy(uint16_t code, uint8_t register_bits, std::array<uint8
                                            co::error_register::kGeneric);
   (void)od_.SetInt(0x1001, 0, reg);
   // §7.5.2.4: the newest error at sub 1, older ones move down, the oldest falls off; bits
-  // 16..31 (additional information) stay 0 (decision 1131).
+  // 16..31 (additional information) stay 0 (decision 1125).
   const int64_t count = od_.GetInt(0x1003, 0).value_or(0);
   const int64_t new_count = std::min<int64_t>(count + 1, kErrorHistoryDepth);
   for (int64_t i = new_count; i >= 2; --i) {

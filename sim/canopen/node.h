@@ -83,6 +83,7 @@ class SlaveNode {
   uint8_t node_id() const { return options_.node_id; }
   NmtState state() const { return state_; }
   bool booted() const { return booted_; }
+  TimePoint now() const { return now_; }  // the instant the node was last advanced to
   const NodeCounters& counters() const { return counters_; }
 
   // Power-on: initialising → boot-up message → PRE-OPERATIONAL (Figure 48). Once.

@@ -300,6 +300,27 @@ TEST_F(NodeTest, Sdo_EveryAbortCodePath) {
   EXPECT_EQ(node->counters().sdo_aborts, cases.size());
 }
 
+TEST_F(NodeTest, Sdo_ProtocolAbortsFromTheLibraryServer) {
+  Frames();
+  auto abort_code = [&](Bytes request) -> std::optional<uint32_t> {
+    Feed(transport::MakeCanFrame(0x605, request));
+    auto f = Frames();
+    if (f.size() != 1) return std::nullopt;
+    auto d = co::DecodeSdo(f[0].payload(), co::SdoDirection::kResponse);
+    if (!d.ok() || d->command != co::SdoCommand::kAbort) return 0;
+    return d->abort_code;
+  };
+  // A download segment without a transfer, a block upload request: 0504 0001h.
+  EXPECT_EQ(abort_code({0x00, 1, 2, 3, 4, 5, 6, 7}), 0x05040001u);
+  EXPECT_EQ(abort_code({0xA0, 0x00, 0x10, 0x00, 0x7F, 0, 0, 0}), 0x05040001u);
+  // Segmented download of 10 bytes to 2003h, first segment with toggle 1: 0503 0000h.
+  EXPECT_EQ(abort_code({0x21, 0x03, 0x20, 0x00, 10, 0, 0, 0}), 0u);  // accepted, no abort
+  EXPECT_EQ(abort_code({0x10, 1, 2, 3, 4, 5, 6, 7}), 0x05030000u);
+  // A download announcing more than the server takes: 0504 0005h.
+  EXPECT_EQ(abort_code({0x21, 0x03, 0x20, 0x00, 0x00, 0x00, 0x02, 0x00}), 0x05040005u);
+  EXPECT_EQ(node->dictionary().GetString(0x2003, 0).value(), "abc");
+}
+
 TEST_F(NodeTest, Sdo_MessagesNameObjectAndLimit) {
   auto s = Download(0x2000, 0, Le(1001, 2));
   // The client's status carries the abort; the node's own message names field and limit.
