@@ -207,7 +207,7 @@ void MotionCore::StepPower() {
     if (!(window_reached_ && !window_left_)) last_set_position_.reset();
   }
   if (!was_enabled_ && enabled) plc_ = PlcState::kStandstill;  // G-18: enable-on → 2
-  if (!power_.power_stage_on()) {
+  if (!power_.power_stage_on() && !quick_stopping_) {
     if (drive_ != Drive::kRest) {
       drive_ = Drive::kRest;
       set_ = {actual_position_, 0, 0};

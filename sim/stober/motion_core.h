@@ -238,7 +238,11 @@ class MotionCore {
   bool SoftwareLimitsUsed() const;
   bool DirectionPermitted(double direction) const;
   bool Moving() const;
-  double OverrideFactor() const { return Get("I230") / 100.0; }
+  // Velocity override I230 (L357-359); the CiA 402 halt bit A515.8 acts as override 0 while
+  // set (G-19 [P], decision 1159).
+  double OverrideFactor() const {
+    return (control_word_ & cw::kHalt) != 0 ? 0.0 : Get("I230") / 100.0;
+  }
 
   MotionCoreOptions options_;
   PowerStateMachine power_;

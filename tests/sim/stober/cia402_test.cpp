@@ -224,5 +224,40 @@ TEST(StoberCia402, FaultResetLeavesErrorStop) {
   EXPECT_EQ(axis.R("I80"), 100);
 }
 
+TEST(StoberCia402, HaltBitHoldsAndResumesLikeOverrideZero) {
+  TestAxis axis;  // G-19, decision 1159
+  axis.W("A541", 1);
+  axis.W("A567", 3000);
+  axis.W("A515", cw::kEnableOperationWord | cw::kExecute);
+  axis.Advance(500);
+  axis.W("A515", cw::kEnableOperationWord | cw::kExecute | cw::kHalt);
+  ASSERT_GT(axis.RunUntil([&] { return axis.R("I88") == 0; }, 1000), 0);
+  const double held = axis.R("I80");
+  axis.Advance(200);
+  EXPECT_EQ(axis.R("I80"), held);
+  EXPECT_EQ(axis.R("I92"), 0);
+  EXPECT_EQ(axis.R("I89"), 3);
+  axis.W("A515", cw::kEnableOperationWord | cw::kExecute);
+  ASSERT_GT(axis.RunUntilDone(), 0);
+  EXPECT_EQ(axis.R("I80"), 3000);
+}
+
+TEST(StoberCia402, DisableOperationWithRampOption) {
+  MotionCoreOptions options;
+  options.enable_off_stops_immediately = false;
+  TestAxis axis(testing::Fixture::kLin, options);
+  axis.W("I404", 500);
+  axis.Start(Command::kMoveVelocity);
+  axis.Advance(300);
+  axis.W("A515", cw::kDisableOperationWord);
+  axis.Advance();
+  EXPECT_GT(axis.R("I88"), 0);  // ramping down
+  EXPECT_LT(axis.R("I88"), 500);
+  ASSERT_GT(axis.RunUntil([&] { return axis.R("I88") == 0; }, 1000), 0);
+  axis.Advance();
+  EXPECT_TRUE(axis.core().brake_engaged());
+  EXPECT_EQ(axis.R("I89"), 0);
+}
+
 }  // namespace
 }  // namespace drivegw::sim::stober
