@@ -33,19 +33,19 @@ drivegw::canopen::PdoType ToPdoType(WireType type);
 
 // Quantity classes and their increments (decision 1172). Times in ms use 1 µs, percent 0.1 %
 // (the CiA 402 per-thousand of 6071h/6087h), user units 0.001 u.
-inline constexpr double kUserUnitScale = 0.001;  // u, u/s, u/s², u/s³ per increment
+inline constexpr double kUserUnitScale = 0.001;     // u, u/s, u/s², u/s³ per increment
 inline constexpr double kMillisecondScale = 0.001;  // ms per increment (1 µs)
 inline constexpr double kPercentScale = 0.1;        // % per increment (‰)
 
 // One CANopen object of the STOBER axis and the parameter whose value it carries.
 struct ObjectBinding {
-  ParamId param;            // the STOBER parameter (A-lines > 511 reach it via CiA 402)
-  CanOpenAddress address;   // ToCanOpen(param), or a CiA 402 alias (606Ch → I88)
+  ParamId param;           // the STOBER parameter (A-lines > 511 reach it via CiA 402)
+  CanOpenAddress address;  // ToCanOpen(param), or a CiA 402 alias (606Ch → I88)
   WireType type = WireType::kI32;
-  double scale = 1;         // user value = raw × scale; 1 for integers and booleans
-  bool boolean = false;     // raw must be 0 or 1
-  bool read_only = false;   // status values: the drive refuses writes (0601 0002h)
-  std::string_view name;    // "position actual value"
+  double scale = 1;        // user value = raw × scale; 1 for integers and booleans
+  bool boolean = false;    // raw must be 0 or 1
+  bool read_only = false;  // status values: the drive refuses writes (0601 0002h)
+  std::string_view name;   // "position actual value"
 };
 
 // Every bound object in address order; each parameter appears once with its ToCanOpen address,
@@ -75,30 +75,30 @@ absl::StatusOr<double> Decode(const ObjectBinding& binding, std::span<const uint
 inline constexpr uint16_t kStatusFlagsIndex = 0x4000;
 inline constexpr uint8_t kStatusFlagsSub = 0;
 namespace status_bit {
-inline constexpr uint32_t kError = 1u << 0;           // I91
-inline constexpr uint32_t kDone = 1u << 1;            // I92
-inline constexpr uint32_t kCommandStateShift = 2;     // I83 (0..2) in bits 2-3
+inline constexpr uint32_t kError = 1u << 0;        // I91
+inline constexpr uint32_t kDone = 1u << 1;         // I92
+inline constexpr uint32_t kCommandStateShift = 2;  // I83 (0..2) in bits 2-3
 inline constexpr uint32_t kCommandStateMask = 3u << 2;
-inline constexpr uint32_t kProfileDone = 1u << 4;     // I85
-inline constexpr uint32_t kInReference = 1u << 5;    // I86
-inline constexpr uint32_t kInWindow = 1u << 6;       // I180
-inline constexpr uint32_t kSpeedReached = 1u << 7;   // I183
-inline constexpr uint32_t kStandstill = 1u << 8;     // I199
-inline constexpr uint32_t kVelocityLimit = 1u << 9;  // I190
-inline constexpr uint32_t kDynamicsLimit = 1u << 10;         // I191
-inline constexpr uint32_t kCyclicPositionLimit = 1u << 11;   // I192
-inline constexpr uint32_t kCyclicVelocityLimit = 1u << 12;   // I193
-inline constexpr uint32_t kCyclicTorqueLimit = 1u << 13;     // I194
+inline constexpr uint32_t kProfileDone = 1u << 4;               // I85
+inline constexpr uint32_t kInReference = 1u << 5;               // I86
+inline constexpr uint32_t kInWindow = 1u << 6;                  // I180
+inline constexpr uint32_t kSpeedReached = 1u << 7;              // I183
+inline constexpr uint32_t kStandstill = 1u << 8;                // I199
+inline constexpr uint32_t kVelocityLimit = 1u << 9;             // I190
+inline constexpr uint32_t kDynamicsLimit = 1u << 10;            // I191
+inline constexpr uint32_t kCyclicPositionLimit = 1u << 11;      // I192
+inline constexpr uint32_t kCyclicVelocityLimit = 1u << 12;      // I193
+inline constexpr uint32_t kCyclicTorqueLimit = 1u << 13;        // I194
 inline constexpr uint32_t kCyclicAccelerationLimit = 1u << 14;  // I195
-inline constexpr uint32_t kPositiveLimitSwitch = 1u << 15;   // I441
-inline constexpr uint32_t kNegativeLimitSwitch = 1u << 16;   // I442
+inline constexpr uint32_t kPositiveLimitSwitch = 1u << 15;      // I441
+inline constexpr uint32_t kNegativeLimitSwitch = 1u << 16;      // I442
 }  // namespace status_bit
 
 // The parameters packed into kStatusFlagsIndex, with their bit (I83: the shift of its 2 bits).
 struct StatusFlagBit {
   ParamId param;
-  uint32_t bit;   // mask of a boolean; for I83 the mask of both bits
-  bool two_bit;   // I83
+  uint32_t bit;  // mask of a boolean; for I83 the mask of both bits
+  bool two_bit;  // I83
 };
 const std::vector<StatusFlagBit>& StatusFlagBits();
 

@@ -14,23 +14,34 @@ namespace {
 // K 10, M 12.
 std::optional<int> GroupNumber(char group) {
   switch (group) {
-    case 'A': return 0;
-    case 'C': return 2;
-    case 'D': return 3;
-    case 'E': return 4;
-    case 'F': return 5;
-    case 'G': return 6;
-    case 'I': return 8;
-    case 'J': return 9;
-    case 'K': return 10;
-    case 'M': return 12;
-    default: return std::nullopt;
+    case 'A':
+      return 0;
+    case 'C':
+      return 2;
+    case 'D':
+      return 3;
+    case 'E':
+      return 4;
+    case 'F':
+      return 5;
+    case 'G':
+      return 6;
+    case 'I':
+      return 8;
+    case 'J':
+      return 9;
+    case 'K':
+      return 10;
+    case 'M':
+      return 12;
+    default:
+      return std::nullopt;
   }
 }
 
 std::optional<char> GroupLetter(int number) {
-  static constexpr std::array<char, 13> kLetters = {'A', 0, 'C', 'D', 'E', 'F', 'G',
-                                                    0,   'I', 'J', 'K', 0, 'M'};
+  static constexpr std::array<char, 13> kLetters = {'A', 0,   'C', 'D', 'E', 'F', 'G',
+                                                    0,   'I', 'J', 'K', 0,   'M'};
   if (number < 0 || number >= static_cast<int>(kLetters.size()) || kLetters[number] == 0) {
     return std::nullopt;
   }
