@@ -286,6 +286,40 @@ absl::StatusOr<int> SerialPort::ReadBackBaud() const {
   return BaudOf(::cfgetospeed(&tio));
 }
 
+absl::Status SerialPort::SetBaud(int baud) {
+  if (fd_ < 0) return absl::FailedPreconditionError(absl::StrCat(Where(), ": closed"));
+  if (absl::Status s = ValidateBaud(baud); !s.ok()) return s;
+  speed_t speed = B9600;
+  SpeedOf(baud, speed);
+  termios tio{};
+  if (::tcgetattr(fd_, &tio) != 0) {
+    ++counters_.errors;
+    return absl::UnavailableError(absl::StrCat(Where(), ": tcgetattr: ", ErrnoText(errno)));
+  }
+  if (::cfsetispeed(&tio, speed) != 0 || ::cfsetospeed(&tio, speed) != 0) {
+    ++counters_.errors;
+    return absl::InvalidArgumentError(
+        absl::StrCat(Where(), ": cfsetspeed ", baud, ": ", ErrnoText(errno)));
+  }
+  // TCSADRAIN: a word still in the output queue must leave at the rate it was meant for.
+  if (::tcsetattr(fd_, TCSADRAIN, &tio) != 0) {
+    ++counters_.errors;
+    return absl::UnavailableError(absl::StrCat(Where(), ": tcsetattr: ", ErrnoText(errno)));
+  }
+  termios back{};
+  if (::tcgetattr(fd_, &back) != 0) {
+    ++counters_.errors;
+    return absl::UnavailableError(absl::StrCat(Where(), ": tcgetattr: ", ErrnoText(errno)));
+  }
+  if (::cfgetospeed(&back) != speed || ::cfgetispeed(&back) != speed) {
+    ++counters_.errors;
+    return absl::UnavailableError(absl::StrCat(Where(), ": serial.baud: driver kept ",
+                                               BaudOf(::cfgetospeed(&back)), " instead of ", baud));
+  }
+  config_.baud = baud;
+  return absl::OkStatus();
+}
+
 absl::Status SerialPort::Write(std::span<const uint8_t> bytes) {
   if (fd_ < 0) return absl::FailedPreconditionError(absl::StrCat(Where(), ": closed"));
   const bool half = config_.duplex == SerialConfig::Duplex::kHalfRs485;

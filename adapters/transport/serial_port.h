@@ -83,6 +83,12 @@ class SerialPort {
   bool is_open() const { return fd_ >= 0; }
   // The speed the device reports now (tcgetattr + cfgetospeed), as a baud number.
   absl::StatusOr<int> ReadBackBaud() const;
+  // Changes the speed of the open port (e.g. after the peer was told to switch, trinamic-sixpack.md
+  // G-40): tcsetattr(TCSADRAIN), so bytes already queued leave at the old rate first, then reads
+  // the speed back. InvalidArgument "serial.baud: ..." for an unsupported rate (the port keeps
+  // its speed); Unavailable naming the device when the driver refuses or keeps another speed.
+  // config().baud follows a successful change.
+  absl::Status SetBaud(int baud);
 
   // Writes every byte, waiting in poll() on EAGAIN and after partial writes, within a deadline of
   // twice the bytes' line time plus one second (DeadlineExceeded naming how many went out).

@@ -170,6 +170,15 @@ absl::StatusOr<uint16_t> ReplyCanId(uint8_t response_address);
 absl::StatusOr<uint16_t> TunnelTransmitCanId(uint8_t address);        // (A << 3) + 1
 absl::StatusOr<uint16_t> TunnelReceiveCanId(uint8_t tunnel_address);  // $44 P1 << 3 (G-30)
 
+// `$40` baud-rate divisor (§2.1 table, L832): baud = 1 250 000 / divisor. The gateway only runs
+// standard termios rates its own port can take; BaudOfDivisor returns the rate of 1200..115200
+// whose rounded divisor `divisor` is (1042, 521, 260, 130, 65, 33, 22, 11; 1800 = 694), else
+// InvalidArgument naming `$40.divisor` and the accepted values. DivisorOfBaud(19200) = 65.
+absl::StatusOr<int> BaudOfDivisor(int64_t divisor);
+int DivisorOfBaud(int baud);
+// The PACK's line rate after every reset (L273, L899).
+inline constexpr int kResetBaud = 19200;
+
 absl::StatusOr<CanFrame> EncodeCommandCan(const Command& command);
 absl::StatusOr<Command> DecodeCommandCan(const CanFrame& frame);
 absl::StatusOr<CanFrame> EncodeReplyCan(const Reply& reply);

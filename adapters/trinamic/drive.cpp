@@ -165,6 +165,42 @@ std::vector<Command> TrinamicDrive::ApplyCommands(bool controller) const {
   return words;
 }
 
+void TrinamicDrive::AbsorbWord(const Command& word) noexcept {
+  std::lock_guard lock(mu_);
+  // Decision 1082: this axis's `$11` in the shadow is the configured currents; the PACK may hold
+  // the current-off word meanwhile, so the drive records its own `$11` itself (1092).
+  if (word.opcode == Opcode::kCurrentControl && word.values[0] == axis_) return;
+  shadow_.Absorb(word);
+}
+
+absl::Status TrinamicDrive::CheckShared(uint32_t id, int64_t value, int baud) const {
+  std::lock_guard lock(mu_);
+  absl::Status s = shadow_.Validate(id, value, baud);
+  if (s.ok()) return s;
+  return absl::InvalidArgumentError(absl::StrCat("drive '", name_, "' (motor ",
+                                                 std::to_string(axis_), ") would break: ",
+                                                 s.message()));
+}
+
+int TrinamicDrive::LineBaud() const {
+  std::shared_ptr<Pack> pack;
+  {
+    std::lock_guard lock(mu_);
+    pack = pack_;
+  }
+  if (pack) {
+    if (auto b = pack->line_baud()) return *b;
+  }
+  const auto& tc = *config().trinamic;
+  return tc.serial ? tc.serial->baud : kResetBaud;
+}
+
+std::optional<int> TrinamicDrive::can_bit_rate() const {
+  std::lock_guard lock(mu_);
+  if (!pack_) return std::nullopt;
+  return pack_->can_bit_rate();
+}
+
 void TrinamicDrive::EvaluateLocked(Updates& out) {
   if (!sample_ || !tracker_) return;
   const AxisSample& s = *sample_;
@@ -1074,7 +1110,7 @@ absl::Status TrinamicDrive::WriteParameter(const ParameterRef& ref, int64_t valu
   auto def = FindParameter(ref.id);
   if (!def.ok()) return Prefixed(Prefix(what), def.status());
   const auto& tc = *config().trinamic;
-  const int baud = tc.serial ? tc.serial->baud : 19200;
+  const int baud = LineBaud();
   std::lock_guard op(op_mu_);
   absl::StatusOr<Command> word = absl::UnknownError("");
   bool currents_off = false;
@@ -1091,6 +1127,20 @@ absl::Status TrinamicDrive::WriteParameter(const ParameterRef& ref, int64_t valu
     currents_off = (*def)->opcode == Opcode::kCurrentControl && !enabled_;
   }
   if (!word.ok()) return Prefixed(Prefix(what), word.status());
+  if ((*def)->scope == ParameterScope::kController) {
+    // Decision 1098 (CT-55, L497): a controller-wide value must suit every axis of the PACK;
+    // each shadow knows only its own velocities.
+    std::shared_ptr<Pack> pack;
+    {
+      std::lock_guard lock(mu_);
+      pack = pack_;
+    }
+    if (pack) {
+      if (auto s = pack->CheckShared(ref.id, value, baud); !s.ok()) {
+        return Prefixed(Prefix(what), s);
+      }
+    }
+  }
   if ((*def)->rule == WriteRule::kAllStopped) {
     // L532: `$12` only while every motor stands: ask the PACK (`$28`, mask 0) and the samples.
     Command q = Word(Opcode::kQueryActivities, {tc.response_address, 0});
@@ -1165,6 +1215,14 @@ absl::StatusOr<NativeReply> TrinamicDrive::SendNative(const NativeRequest& req) 
         absl::StrCat(Prefix("SendNative"),
                      "service opcodes $F2..$F7 are refused (L918: misuse can damage the "
                      "unit permanently)"));
+  }
+  if (tr->opcode == static_cast<uint8_t>(Opcode::kQueryActivities) && tr->params[1] != 0) {
+    // Decision 1099 (G-41, CT-17): the session never leaves a reply outstanding; a delayed `$28`
+    // would block the line until the masked motors stop (L740, L357).
+    return absl::InvalidArgumentError(absl::StrCat(
+        Prefix("SendNative"), "query_activities ($28) with delay mask ", std::to_string(tr->params[1]),
+        " is refused (G-41: the gateway never has a delayed reply outstanding); send mask 0 and "
+        "poll until the motors are inactive"));
   }
   auto spec = FindOpcode(tr->opcode);
   if (!spec.ok()) {

@@ -74,6 +74,9 @@ class TrinamicDrive final : public DriveBase, private PackListener {
   std::optional<SessionCounters> session_counters() const;
   uint8_t axis() const { return axis_; }
   ParameterShadow shadow() const;
+  // CT-20: the CAN bit rate selected by the PACK's jumpers (`$30` P4, §3.2, G-19), read once per
+  // connect; nullopt on serial drives, while not active or before the first read.
+  std::optional<int> can_bit_rate() const;
 
  protected:
   absl::Status DoActivate() override;
@@ -100,6 +103,10 @@ class TrinamicDrive final : public DriveBase, private PackListener {
   void OnControllerReset() noexcept override;
   void OnDuplicateAddress(const std::string& detail) noexcept override;
   std::vector<Command> ApplyCommands(bool controller) const override;
+  void AbsorbWord(const Command& word) noexcept override;
+  absl::Status CheckShared(uint32_t id, int64_t value, int baud) const override;
+  // The serial line rate now (the Pack's, after any `$40`), 19200 on CAN (G-40).
+  int LineBaud() const;
 
   // One word through the Pack; errors name the drive and the opcode.
   absl::StatusOr<std::optional<Reply>> SendWord(const Command& command);

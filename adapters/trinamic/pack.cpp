@@ -72,12 +72,37 @@ absl::Status SameTransport(const TrinamicConfig& have, const TrinamicConfig& wan
   return absl::OkStatus();
 }
 
+// CT-50, §3.1: on one line / bus a response address equal to another PACK's address would make
+// its replies look like commands to that PACK (CAN: reply ID RA << 3 = its command ID).
+absl::Status NoAddressClash(Registry& r, const TrinamicConfig& want) {
+  const std::string where = Pack::KeyOf(want);
+  const std::string line = where.substr(0, where.rfind('#'));
+  for (const auto& [key, weak] : r.packs) {
+    std::shared_ptr<Pack> p = weak.lock();
+    if (!p || key.substr(0, key.rfind('#')) != line) continue;
+    const TrinamicConfig& have = p->config();
+    if (want.response_address == have.address) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "trinamic.response_address: ", std::to_string(want.response_address),
+          " is the address of the controller ", key, " on the same line (CT-50, §3.1)"));
+    }
+    if (want.address == have.response_address) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "trinamic.address: ", std::to_string(want.address), " is the response address of ",
+          key, " on the same line (CT-50, §3.1)"));
+    }
+  }
+  return absl::OkStatus();
+}
+
 SessionOptions SessionOptionsOf(const TrinamicConfig& c) {
   SessionOptions o;
   o.address = c.address;
   o.response_address = c.response_address;
   o.offline_after_misses = c.offline_after_misses;
   o.probe_timeout = std::max(c.reply_timeout, milliseconds(50));
+  // A reset PACK talks 19200 again (L273, L899, G-40): the probe falls back to it.
+  if (c.serial) o.reset_baud = kResetBaud;
   return o;
 }
 
@@ -103,6 +128,7 @@ absl::StatusOr<std::shared_ptr<Pack>> Pack::Acquire(const TrinamicConfig& config
       return p;
     }
   }
+  if (auto s = NoAddressClash(r, config); !s.ok()) return s;
   const SessionOptions options = SessionOptionsOf(config);
   absl::StatusOr<std::shared_ptr<ControllerSession>> session;
   if (config.serial) {
@@ -278,7 +304,62 @@ absl::StatusOr<std::optional<Reply>> Pack::Send(const Command& command, Deadline
         name(), ": ", SpecOf(command.opcode).name,
         " not sent: the controller was reset (L853); parameters re-applied, re-enable first"));
   }
-  return session_->Transact(command, deadline);
+  std::lock_guard cb(cb_mu_);
+  return TransactWord(command, deadline);
+}
+
+absl::StatusOr<std::optional<Reply>> Pack::TransactWord(const Command& command,
+                                                        Deadline deadline) {
+  absl::StatusOr<std::optional<Reply>> r = std::optional<Reply>();
+  if (command.opcode == Opcode::kSetBaudRate) {
+    // G-40: the PACK switches after the word; the session follows and verifies (CT-08).
+    if (auto s = session_->ChangeBaud(command, deadline); !s.ok()) return s;
+  } else {
+    r = session_->Transact(command, deadline);
+    if (!r.ok()) return r;
+  }
+  // Decisions 1072/1073/1098: every axis sees every configuration word (controller-wide values,
+  // the `$10` pair); ParameterShadow::Absorb ignores the words of other motors.
+  std::vector<PackListener*> listeners;
+  {
+    std::lock_guard lock(mu_);
+    for (auto& [n, a] : axes_) listeners.push_back(a.listener);
+  }
+  for (PackListener* l : listeners) l->AbsorbWord(command);
+  return r;
+}
+
+absl::Status Pack::CheckShared(uint32_t id, int64_t value, int baud) {
+  std::lock_guard cb(cb_mu_);  // no listener leaves meanwhile
+  std::vector<PackListener*> listeners;
+  {
+    std::lock_guard lock(mu_);
+    for (auto& [n, a] : axes_) listeners.push_back(a.listener);
+  }
+  for (const PackListener* l : listeners) {
+    if (auto s = l->CheckShared(id, value, baud); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+std::optional<int> Pack::can_bit_rate() const {
+  std::lock_guard lock(mu_);
+  return can_bit_rate_;
+}
+
+void Pack::ReadJumpers() {
+  Command q;
+  q.address = config_.address;
+  q.opcode = Opcode::kReadInputs;
+  q.values = {0, config_.response_address, 0, 0, 0, 0, 0};
+  auto r = session_->Transact(q, SessionClock::now() + config_.reply_timeout);
+  std::lock_guard lock(mu_);
+  if (!r.ok() || !r->has_value()) return;  // retried at the next connect
+  // `$30` P4 bit 6 = JP1, bit 7 = JP2, 1 = set (L305, L790, G-19); §3.2 table.
+  const int64_t p4 = (**r).values[3];
+  const bool jp1 = (p4 & 0x40) != 0;
+  const bool jp2 = (p4 & 0x80) != 0;
+  can_bit_rate_ = jp1 && jp2 ? 1'000'000 : jp2 ? 500'000 : jp1 ? 125'000 : 250'000;
 }
 
 absl::Status Pack::SendTunnel(const std::vector<uint8_t>& data) {
@@ -318,7 +399,7 @@ absl::Status Pack::EnsureApplied() {
   for (auto& [n, listener] : todo) {
     const std::vector<Command> words = listener->ApplyCommands(!controller_sent);
     for (const Command& w : words) {
-      auto r = session_->Transact(w, SessionClock::now() + config_.reply_timeout);
+      auto r = TransactWord(w, SessionClock::now() + config_.reply_timeout);
       if (!r.ok()) {
         std::lock_guard lock(mu_);
         if (reset) reset_pending_ = true;  // retry the whole re-apply
@@ -348,6 +429,7 @@ void Pack::OnLinkChange(LinkState state, const std::string& reason) noexcept {
     std::lock_guard lock(mu_);
     link_reason_ = reason;
     events_.push_back(Event{Event::kLink, state, reason});
+    if (state == LinkState::kOnline && config_.can) jumpers_pending_ = true;
   }
   cv_.notify_all();
 }
@@ -487,6 +569,13 @@ void Pack::Run() {
         // Not faster than every 50 ms (the words failed on an ONLINE link: I/O trouble).
         cv_.wait_for(lock, milliseconds(50), [&] { return stop_; });
       }
+    }
+    if (jumpers_pending_ && session_->link_state() == LinkState::kOnline) {
+      jumpers_pending_ = false;  // a failed read waits for the next connect
+      lock.unlock();
+      ReadJumpers();  // CT-20: once per connect
+      lock.lock();
+      if (stop_) break;
     }
     // While OFFLINE the polls below reconnect through the session's probe and back-off.
     // Next due: the reset probe or the earliest axis.

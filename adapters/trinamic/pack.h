@@ -50,6 +50,13 @@ class PackListener {
   // The words that bring a freshly reset PACK to this axis's configuration; controller-scoped
   // words only when `controller` (sent once per PACK).
   virtual std::vector<Command> ApplyCommands(bool controller) const = 0;
+  // A configuration word the Pack sent (any axis's API write, native pass-through, re-apply):
+  // every axis absorbs it so controller-wide values and pair currents stay equal in all shadows
+  // (decisions 1072, 1073, 1098). Called with the Pack's callback lock held.
+  virtual void AbsorbWord(const Command& word) noexcept = 0;
+  // Would `value` for parameter `id` (controller-scoped, e.g. `$12.clkdiv`) break this axis's
+  // configuration? InvalidArgument naming the drive and the rule (CT-55, L497).
+  virtual absl::Status CheckShared(uint32_t id, int64_t value, int baud) const = 0;
 };
 
 struct PackCounters {
@@ -90,6 +97,8 @@ class Pack final : private SessionObserver {
   absl::Status SendTunnel(const std::vector<uint8_t>& data);
   // `$43` now (connect, framing detection, reset flag); re-apply if it reported a reset.
   absl::Status Probe();
+  // Validates a controller-scoped parameter value against every registered axis (decision 1098).
+  absl::Status CheckShared(uint32_t id, int64_t value, int baud);
   // Polls `axis` at once (a drive waiting for a command's confirmation).
   void PollSoon(uint8_t axis);
 
@@ -103,6 +112,11 @@ class Pack final : private SessionObserver {
   const TrinamicConfig& config() const { return config_; }
   std::string name() const { return session_->name(); }
   uint8_t address() const { return config_.address; }
+  // The serial line rate now (follows `$40`, G-40); nullopt on CAN.
+  std::optional<int> line_baud() const { return session_->baud(); }
+  // CT-20: the CAN bit rate the jumpers JP1/JP2 select, from `$30` P4 bits 6/7 (1 = set, G-19;
+  // §3.2 table), read once per connect on CAN links; nullopt before that and on serial links.
+  std::optional<int> can_bit_rate() const;
 
  private:
   struct Axis {
@@ -125,6 +139,11 @@ class Pack final : private SessionObserver {
   void Run();
   void PollAxis(uint8_t axis);
   void ProbeReset();
+  // Reads the jumper bits (`$30`) after a connect on CAN (CT-20).
+  void ReadJumpers();
+  // One word through the session: `$40` via ChangeBaud (G-40); a sent configuration word is
+  // absorbed by every axis (decision 1098). Needs cb_mu_ for the absorb.
+  absl::StatusOr<std::optional<Reply>> TransactWord(const Command& command, Deadline deadline);
   // Sends pending (re-)apply words; notifies OnControllerReset after a reset. Needs cb_mu_.
   absl::Status EnsureApplied();
   void DispatchEvents();
@@ -154,6 +173,8 @@ class Pack final : private SessionObserver {
   std::string link_reason_;
   SessionClock::time_point next_reset_probe_{};
   SessionClock::time_point last_motion_probe_{};  // `$43` before the newest motion command
+  bool jumpers_pending_ = false;                   // CAN: `$30` due after a connect
+  std::optional<int> can_bit_rate_;
   PackCounters counters_;
   std::thread thread_;
 };

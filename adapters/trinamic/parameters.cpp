@@ -307,6 +307,11 @@ absl::Status ParameterShadow::Validate(uint32_t id, int64_t value, int baud) con
   if (value < d.min) return Invalid(absl::StrCat(head, " below ", d.min, " (", row.line, ")"));
   if (value > d.max) return Invalid(absl::StrCat(head, " exceeds ", d.max, " (", row.line, ")"));
   if (baud <= 0) return Invalid(absl::StrCat("baud: ", baud, " below 1"));
+  // G-40: the gateway switches its own port to the new rate, so only divisors of standard
+  // termios rates are accepted (§2.1 table, L832).
+  if (id == kDivisor) {
+    if (auto b = BaudOfDivisor(value); !b.ok()) return b.status();
+  }
 
   // Every cross-field rule sees the candidate value for `id` and the shadow for the rest.
   const auto v = [&](uint32_t k) { return k == id ? value : Get(k); };

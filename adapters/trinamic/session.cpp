@@ -153,6 +153,16 @@ class SerialLink final : public SessionLink {
 
   std::optional<ReplyFraming> framing() const override { return framing_; }
 
+  std::optional<int> baud() const override { return config_.baud; }
+  absl::Status SetBaud(int baud) override {
+    if (auto s = transport::ValidateBaud(baud); !s.ok()) return s;
+    if (port_) {
+      if (auto s = port_->SetBaud(baud); !s.ok()) return s;
+    }
+    config_.baud = baud;  // a reopened port starts at the new rate too
+    return absl::OkStatus();
+  }
+
  private:
   absl::Status Garbage(SessionCounters& c, const std::string& what) {
     ++c.garbage;
@@ -322,7 +332,8 @@ ControllerSession::ControllerSession(std::unique_ptr<SessionLink> link,
     : options_(options),
       link_(std::move(link)),
       name_(
-          absl::StrCat("trinamic ", link_->Name(), " address ", std::to_string(options.address))) {}
+          absl::StrCat("trinamic ", link_->Name(), " address ", std::to_string(options.address))),
+      baud_(link_->baud()) {}
 
 int ControllerSession::AddObserver(SessionObserver* observer) {
   std::lock_guard<std::mutex> lock(observers_mutex_);
@@ -447,6 +458,15 @@ absl::Status ControllerSession::ProbeLocked() {
   absl::StatusOr<Reply> reply =
       opened.ok() ? Exchange(probe, SessionClock::now() + options_.probe_timeout, /*detect=*/true)
                   : absl::StatusOr<Reply>(opened);
+  const std::optional<int> rate = link_->baud();
+  if (!reply.ok() && opened.ok() && options_.reset_baud && rate && *rate != *options_.reset_baud) {
+    // G-40, L273, L899: a PACK that was reset (power cycle, `$CC`) talks 19200 again and ignores
+    // words at our rate. One probe at the reset rate; its reset flag then re-applies `$40`.
+    if (SetBaudLocked(*options_.reset_baud).ok()) {
+      reply = Exchange(probe, SessionClock::now() + options_.probe_timeout, /*detect=*/true);
+      if (!reply.ok()) (void)SetBaudLocked(*rate);
+    }
+  }
   if (!reply.ok()) {
     {
       std::lock_guard<std::mutex> lock(state_mutex_);
@@ -496,6 +516,11 @@ absl::StatusOr<std::optional<Reply>> ControllerSession::Transact(const Command& 
   }
   if (auto s = ValidateCommand(command); !s.ok()) return s;
   std::lock_guard<std::mutex> lock(io_mutex_);
+  return TransactLocked(command, deadline);
+}
+
+absl::StatusOr<std::optional<Reply>> ControllerSession::TransactLocked(const Command& command,
+                                                                       Deadline deadline) {
   if (link_state() != LinkState::kOnline) {
     if (link_state() == LinkState::kOffline && SessionClock::now() < next_probe_) {
       return absl::UnavailableError(absl::StrCat(Where(command), ": controller OFFLINE"));
@@ -546,6 +571,62 @@ absl::StatusOr<std::optional<Reply>> ControllerSession::Transact(const Command& 
       return absl::UnavailableError(what);
     }
   }
+}
+
+std::optional<int> ControllerSession::baud() const {
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  return baud_;
+}
+
+absl::Status ControllerSession::SetBaudLocked(int baud) {
+  absl::Status s = link_->SetBaud(baud);
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  baud_ = link_->baud();
+  if (!s.ok()) return absl::Status(s.code(), absl::StrCat(name_, ": ", s.message()));
+  return absl::OkStatus();
+}
+
+absl::Status ControllerSession::SetBaud(int baud) {
+  std::lock_guard<std::mutex> lock(io_mutex_);
+  return SetBaudLocked(baud);
+}
+
+absl::Status ControllerSession::ChangeBaud(const Command& word, Deadline deadline) {
+  if (word.opcode != Opcode::kSetBaudRate) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(Where(word), ": ChangeBaud takes a set_baud_rate ($40) word"));
+  }
+  if (word.address != options_.address) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(Where(word), ": command for address ", std::to_string(word.address)));
+  }
+  if (auto s = ValidateCommand(word); !s.ok()) return s;
+  const absl::StatusOr<int> target = BaudOfDivisor(word.values[0]);
+  std::lock_guard<std::mutex> lock(io_mutex_);
+  const std::optional<int> old = link_->baud();
+  // Our own port must be able to follow before the PACK is told to switch (CT-08).
+  if (old && !target.ok()) return target.status();
+  auto sent = TransactLocked(word, deadline);
+  if (!sent.ok()) return sent.status();
+  if (!old || *old == *target) return absl::OkStatus();
+  // G-40 [P]: the new rate is effective after the complete word; switch, settle, verify. The
+  // word must have reached the PACK at the old rate first: TCSADRAIN covers a UART's queue, and
+  // twice the word's line time (10 bits per byte, G-03) covers a reader on a pty (§2.7).
+  std::this_thread::sleep_for(microseconds(2 * kCommandSize * 10 * 1'000'000 / *old));
+  if (auto s = SetBaudLocked(*target); !s.ok()) return s;
+  std::this_thread::sleep_for(options_.baud_settle);
+  Command probe;
+  probe.address = options_.address;
+  probe.opcode = Opcode::kUnitInformation;
+  probe.values[0] = options_.response_address;
+  auto verified =
+      TransactLocked(probe, SessionClock::now() + std::max(options_.probe_timeout,
+                                                           std::chrono::milliseconds(50)));
+  if (verified.ok()) return absl::OkStatus();
+  (void)SetBaudLocked(*old);
+  return absl::UnavailableError(absl::StrCat(
+      Where(word), ": no unit_information ($43) answer at ", *target, " baud after the switch (",
+      std::string(verified.status().message()), "); returned to ", *old, " baud (G-40)"));
 }
 
 }  // namespace drivegw::trinamic

@@ -38,6 +38,12 @@ struct SessionOptions {
   std::chrono::milliseconds break_duration{10};  // resync break (§2.3, L279)
   // After a $CC hardware reset the PACK boots for ca. 1 s (L900, G-43): OFFLINE until then.
   std::chrono::milliseconds reset_boot_time{1000};
+  // Serial only: the PACK's rate after any reset (19200, L273, L899). When a connection probe at
+  // another rate fails, the session tries once at this rate (a reset PACK forgot its `$40`,
+  // G-40) and stays there if it answers. nullopt: never.
+  std::optional<int> reset_baud;
+  // G-40: after switching its own port the session waits this long before the verifying `$43`.
+  std::chrono::milliseconds baud_settle{10};
 };
 
 struct SessionCounters {
@@ -103,6 +109,12 @@ class SessionLink {
   enum class Extra { kNone, kDuplicate, kGarbage };
   virtual Extra AfterReply(std::chrono::microseconds window, SessionCounters& counters) = 0;
   virtual std::optional<ReplyFraming> framing() const { return std::nullopt; }
+  // Serial links: the line rate now / reconfigure the port (G-40). CAN has no line rate.
+  virtual std::optional<int> baud() const { return std::nullopt; }
+  virtual absl::Status SetBaud(int baud) {
+    (void)baud;
+    return absl::FailedPreconditionError("baud rate needs a serial link");
+  }
   // One raw CAN frame (the `$44` RS-232 tunnel, §3.5 L307-317); serial links cannot.
   virtual absl::Status SendCanFrame(uint16_t id, const std::vector<uint8_t>& data) {
     (void)id;
@@ -143,6 +155,16 @@ class ControllerSession {
   // TunnelTransmitCanId(address), DLC = size, serialised with Transact. Serial link:
   // FailedPrecondition "tunnel needs CAN"; InvalidArgument for 0 or more than 8 bytes.
   absl::Status SendTunnel(const std::vector<uint8_t>& data);
+  // CT-08 / G-40, one step under the request lock: sends the `$40` word at the current rate,
+  // switches the own port to 1 250 000 / divisor (standard rates only, BaudOfDivisor), waits
+  // options.baud_settle and verifies with a `$43`. No `$43` answer: the port returns to the old
+  // rate and Unavailable names both rates. A CAN link only sends the word (it sets the PACK's
+  // RS-232 rate, not the bus). InvalidArgument for another opcode or a non-standard divisor.
+  absl::Status ChangeBaud(const Command& set_baud_rate, Deadline deadline);
+  // Reconfigures the own serial port only (no word sent); FailedPrecondition on CAN.
+  absl::Status SetBaud(int baud);
+  // The serial line rate now; nullopt on CAN.
+  std::optional<int> baud() const;
 
   int AddObserver(SessionObserver* observer);
   void RemoveObserver(int id);
@@ -156,6 +178,8 @@ class ControllerSession {
  private:
   ControllerSession(std::unique_ptr<SessionLink> link, const SessionOptions& options);
   absl::Status ProbeLocked();
+  absl::StatusOr<std::optional<Reply>> TransactLocked(const Command& command, Deadline deadline);
+  absl::Status SetBaudLocked(int baud);
   absl::StatusOr<Reply> Exchange(const Command& command, Deadline deadline, bool detect);
   void Miss(const std::string& reason);
   void SetState(LinkState state, const std::string& reason);
@@ -175,6 +199,7 @@ class ControllerSession {
 
   mutable std::mutex state_mutex_;
   LinkState state_ = LinkState::kUnknown;
+  std::optional<int> baud_;  // the link's rate, mirrored for baud() without the I/O lock
   SessionCounters counters_;
 
   std::mutex observers_mutex_;

@@ -148,6 +148,13 @@ void TrinamicServer::FlushLocked(TimePoint now) {
 
 void TrinamicServer::SendLocked(const std::vector<uint8_t>& bytes) {
   if (pty_.Write(bytes).ok()) ++counters_.replies;
+  wire_.push_back(WireEvent{false, bytes});
+  if (wire_.size() > 100000) wire_.pop_front();
+}
+
+std::vector<TrinamicServer::WireEvent> TrinamicServer::wire() const {
+  std::lock_guard lock(mu_);
+  return {wire_.begin(), wire_.end()};
 }
 
 std::vector<std::vector<uint8_t>> TrinamicServer::words() const {
@@ -158,6 +165,7 @@ std::vector<std::vector<uint8_t>> TrinamicServer::words() const {
 void TrinamicServer::ClearWords() {
   std::lock_guard lock(mu_);
   trace_.clear();
+  wire_.clear();
 }
 
 void TrinamicServer::HandleLocked(Unit& unit, const drivegw::trinamic::Command& command,
@@ -165,6 +173,8 @@ void TrinamicServer::HandleLocked(Unit& unit, const drivegw::trinamic::Command& 
   // Every unit on a multi-drop line decodes the same host word; trace it once (decision 1039).
   const bool first_unit = &unit == &units_.front();
   if (auto bytes = drivegw::trinamic::EncodeCommand(command); first_unit && bytes.ok()) {
+    wire_.push_back(WireEvent{true, *bytes});
+    if (wire_.size() > 100000) wire_.pop_front();
     trace_.push_back(*std::move(bytes));
     if (trace_.size() > 100000) trace_.pop_front();  // bounded for long-running tools
   }

@@ -67,6 +67,14 @@ class TrinamicServer {
   // first (bounded); ClearWords empties it.
   std::vector<std::vector<uint8_t>> words() const;
   void ClearWords();
+  // Both directions in line order (tests, CT-10 "no interlacing"): every word unit 0 executed
+  // (from_host) and every byte burst the server wrote (replies, stray `00`), bounded like words();
+  // ClearWords empties it too.
+  struct WireEvent {
+    bool from_host = false;
+    std::vector<uint8_t> bytes;
+  };
+  std::vector<WireEvent> wire() const;
 
  private:
   struct Unit {
@@ -101,6 +109,7 @@ class TrinamicServer {
   bool reset_done_ = false;
   ServerCounters counters_;
   std::deque<std::vector<uint8_t>> trace_;
+  std::deque<WireEvent> wire_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

@@ -95,6 +95,35 @@ TEST_P(SerialPortBaud, Exchange_NineByteRequest_EightAndNineByteReplies) {
 
 INSTANTIATE_TEST_SUITE_P(Pty, SerialPortBaud, ::testing::Values(9600, 115200));
 
+TEST(SerialPort, SetBaud_ChangesSpeedOfOpenPort_PeerSeesIt_BadRateKeepsSpeed) {
+  PseudoTerminal pty = OpenPty();
+  SerialPort port = OpenPort(pty.slave_path(), 19200);
+  ASSERT_TRUE(port.Write(kRequest).ok());  // queued at 19200, then the switch (G-40)
+  ASSERT_TRUE(port.SetBaud(9600).ok());
+  EXPECT_EQ(port.config().baud, 9600);
+  EXPECT_EQ(*port.ReadBackBaud(), 9600);
+  EXPECT_EQ(*pty.PeerBaud(), 9600);  // one termios for both pty ends (§2.7)
+  auto got = pty.ReadExactly(9, 5s);
+  ASSERT_TRUE(got.ok()) << got.status();
+  EXPECT_EQ(*got, kRequest);
+  // The port still works at the new speed.
+  ASSERT_TRUE(pty.Write(kReplyR8).ok());
+  auto r8 = port.ReadExactly(8, 5s);
+  ASSERT_TRUE(r8.ok()) << r8.status();
+  EXPECT_EQ(*r8, kReplyR8);
+
+  const absl::Status bad = port.SetBaud(12345);
+  EXPECT_EQ(bad.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(bad.message(), HasSubstr("serial.baud: 12345"));
+  EXPECT_EQ(port.config().baud, 9600);
+  EXPECT_EQ(*port.ReadBackBaud(), 9600);
+
+  SerialPort moved = std::move(port);
+  EXPECT_EQ(port.SetBaud(19200).code(), absl::StatusCode::kFailedPrecondition);  // NOLINT
+  EXPECT_TRUE(moved.SetBaud(19200).ok());
+  EXPECT_EQ(*pty.PeerBaud(), 19200);
+}
+
 TEST(SerialPort, ReadExactly_ReplyArrivesInPieces_Assembled) {
   PseudoTerminal pty = OpenPty();
   SerialPort port = OpenPort(pty.slave_path());
