@@ -26,21 +26,28 @@ Command Decode(uint16_t word) {
 
 std::string_view PowerStateName(PowerState state) {
   switch (state) {
-    case PowerState::kNotReadyToSwitchOn: return "Not ready to switch on";
-    case PowerState::kSwitchOnDisabled: return "Switch on disabled";
-    case PowerState::kReadyToSwitchOn: return "Ready to switch on";
-    case PowerState::kSwitchedOn: return "Switched on";
-    case PowerState::kOperationEnabled: return "Operation enabled";
-    case PowerState::kQuickStopActive: return "Quick stop active";
-    case PowerState::kFaultReactionActive: return "Fault reaction active";
-    case PowerState::kFault: return "Fault";
+    case PowerState::kNotReadyToSwitchOn:
+      return "Not ready to switch on";
+    case PowerState::kSwitchOnDisabled:
+      return "Switch on disabled";
+    case PowerState::kReadyToSwitchOn:
+      return "Ready to switch on";
+    case PowerState::kSwitchedOn:
+      return "Switched on";
+    case PowerState::kOperationEnabled:
+      return "Operation enabled";
+    case PowerState::kQuickStopActive:
+      return "Quick stop active";
+    case PowerState::kFaultReactionActive:
+      return "Fault reaction active";
+    case PowerState::kFault:
+      return "Fault";
   }
   return "?";
 }
 
 PowerStateMachine::PowerStateMachine(bool operation_enabled)
-    : state_(operation_enabled ? PowerState::kOperationEnabled
-                               : PowerState::kNotReadyToSwitchOn) {
+    : state_(operation_enabled ? PowerState::kOperationEnabled : PowerState::kNotReadyToSwitchOn) {
   if (operation_enabled) previous_control_word_ = cw::kEnableOperationWord;
 }
 
@@ -107,9 +114,12 @@ void PowerStateMachine::Step(uint16_t control_word, bool motion_stopped) {
 uint16_t PowerStateMachine::StatusWord(const StatusWordInputs& in) const {
   uint16_t w = 0;
   switch (state_) {  // CiA 402 status word patterns xxxx xxxx x??? ????
-    case PowerState::kNotReadyToSwitchOn: break;                         // x0xx 0000
-    case PowerState::kSwitchOnDisabled: w = sw::kSwitchOnDisabled; break;  // x1xx 0000
-    case PowerState::kReadyToSwitchOn:                                   // x01x 0001
+    case PowerState::kNotReadyToSwitchOn:
+      break;  // x0xx 0000
+    case PowerState::kSwitchOnDisabled:
+      w = sw::kSwitchOnDisabled;
+      break;                            // x1xx 0000
+    case PowerState::kReadyToSwitchOn:  // x01x 0001
       w = sw::kQuickStop | sw::kReadyToSwitchOn | sw::kVoltageEnabled;
       break;
     case PowerState::kSwitchedOn:  // x01x 0011
@@ -126,7 +136,9 @@ uint16_t PowerStateMachine::StatusWord(const StatusWordInputs& in) const {
       w = sw::kReadyToSwitchOn | sw::kSwitchedOn | sw::kOperationEnabled | sw::kFault |
           sw::kVoltageEnabled;
       break;
-    case PowerState::kFault: w = sw::kFault; break;  // x0xx 1000
+    case PowerState::kFault:
+      w = sw::kFault;
+      break;  // x0xx 1000
   }
   w |= sw::kRemote;  // the control word is always taken from the bus (decision 1143)
   if (in.warning) w |= sw::kWarning;

@@ -29,14 +29,20 @@ int CommandForMode(int mode, uint16_t control_word, int option_code) {
     case 1:
       if ((control_word & cw::kRelative) == 0) return 1;  // MoveAbsolute
       return (option_code & 0x3) == 0x2 ? 2 : 3;          // A621.0 = 0, A621.1 = 1 → Relative
-    case 3: return 8;
+    case 3:
+      return 8;
     case 4:
-    case 10: return 9;
-    case 6: return 6;
+    case 10:
+      return 9;
+    case 6:
+      return 6;
     case 7:
-    case 8: return 10;
-    case 9: return 7;
-    default: return 0;
+    case 8:
+      return 10;
+    case 9:
+      return 7;
+    default:
+      return 0;
   }
 }
 
@@ -232,8 +238,11 @@ void MotionCore::UpdateContinuousInputs() {
         PlanVelocity(cmd_velocity_, cmd_acceleration_, cmd_deceleration_, cmd_jerk_);
       }
       break;
-    case Command::kMoveSpeed: UpdateMoveSpeed(); break;
-    default: break;
+    case Command::kMoveSpeed:
+      UpdateMoveSpeed();
+      break;
+    default:
+      break;
   }
 }
 
@@ -259,17 +268,23 @@ void MotionCore::Integrate() {
         break;
       case Drive::kCyclicTakeover: {
         // I113 = cyclical takeover: the set velocity jumps, no ramps (L859).
-        const double v = cmd_sign(Get("I404")) *
-                         std::min(std::abs(Get("I404")) * OverrideFactor(), Get("I10"));
+        const double v =
+            cmd_sign(Get("I404")) * std::min(std::abs(Get("I404")) * OverrideFactor(), Get("I10"));
         set_.acceleration = (v - previous_velocity) / step;
         set_.velocity = v;
         set_.position += v * step;
         velocity_target_ = v;
         break;
       }
-      case Drive::kCyclicSpeed: StepCyclicSpeed(); break;
-      case Drive::kCyclicPosition: StepCyclicPosition(); break;
-      case Drive::kTorque: StepTorque(); break;
+      case Drive::kCyclicSpeed:
+        StepCyclicSpeed();
+        break;
+      case Drive::kCyclicPosition:
+        StepCyclicPosition();
+        break;
+      case Drive::kTorque:
+        StepTorque();
+        break;
     }
   }
   if (drive_ != Drive::kTorque || limit_stop_) {
@@ -305,8 +320,8 @@ void MotionCore::CheckLimitSwitches() {
   const double s = cmd_sign(set_.velocity);
   const bool hit = (positive && s > 0) || (negative && s < 0);
   if (!hit) return;
-  const std::string which = s > 0 ? "positive hardware limit switch I441" :
-                                    "negative hardware limit switch I442";
+  const std::string which =
+      s > 0 ? "positive hardware limit switch I441" : "negative hardware limit switch I442";
   switch (command_) {
     case Command::kMoveAbsolute:
     case Command::kMoveRelative:
@@ -333,13 +348,14 @@ void MotionCore::CheckLimitSwitches() {
         StartLimitStop();
       }
       break;
-    default: break;
+    default:
+      break;
   }
 }
 
 void MotionCore::StartLimitStop() {
-  const double dec = options_.quick_stop_deceleration > 0 ? options_.quick_stop_deceleration
-                                                          : Get("I11");
+  const double dec =
+      options_.quick_stop_deceleration > 0 ? options_.quick_stop_deceleration : Get("I11");
   const double jerk = options_.quick_stop_jerk > 0 ? options_.quick_stop_jerk : Get("I16");
   absl::StatusOr<motion::JerkVelocityProfile> stop =
       motion::JerkVelocityProfile::Stop(set_, dec, jerk);
@@ -412,7 +428,8 @@ void MotionCore::EvaluateStatus() {
       if (drive_ == Drive::kCyclicTakeover) {
         profile_done_ = true;
       } else {
-        profile_done_ = drive_ == Drive::kProfile && t_ >= ramp_end_ - motion::Profile::kEndTolerance;
+        profile_done_ =
+            drive_ == Drive::kProfile && t_ >= ramp_end_ - motion::Profile::kEndTolerance;
       }
       speed_reached_ = profile_done_ && std::abs(actual_velocity_ - set_.velocity) <= c40 &&
                        std::abs(set_.velocity - velocity_target_) <= c40;
@@ -441,7 +458,8 @@ void MotionCore::EvaluateStatus() {
       // G-32: Done from cycle k+2; I183/I85 unused (L1421, L1713, L1847).
       done_ = cycle_ >= start_cycle_ + 2;
       break;
-    default: break;
+    default:
+      break;
   }
 }
 
@@ -510,7 +528,8 @@ void MotionCore::Publish() {
     case 10:  // cyclic/torque modes: 12 drive follows the command value
       in.op_mode_bit12 = accepted;
       break;
-    default: break;
+    default:
+      break;
   }
   Set("A516", power_.StatusWord(in));
 }
@@ -520,9 +539,12 @@ void MotionCore::Publish() {
 bool MotionCore::Moving() const {
   if (limit_stop_) return true;
   switch (drive_) {
-    case Drive::kRest: return false;
-    case Drive::kProfile: return profile_.Active(t_) || set_.velocity != 0;
-    default: return true;
+    case Drive::kRest:
+      return false;
+    case Drive::kProfile:
+      return profile_.Active(t_) || set_.velocity != 0;
+    default:
+      return true;
   }
 }
 

@@ -151,8 +151,8 @@ class MotionCore {
 
  private:
   enum class Drive {
-    kRest,          // holding the set position
-    kProfile,       // a sim/motion profile (positioning, velocity, stop, halt, homing phases)
+    kRest,            // holding the set position
+    kProfile,         // a sim/motion profile (positioning, velocity, stop, halt, homing phases)
     kCyclicTakeover,  // MoveVelocity with I113 = cyclical takeover (no ramps, L859)
     kCyclicSpeed,
     kCyclicPosition,
@@ -256,7 +256,7 @@ class MotionCore {
 
   // Command and status (§2.3: one status set per axis).
   Command command_ = Command::kDoNothing;
-  bool command_active_ = false;  // the latest command runs (not denied, cancelled or disabled)
+  bool command_active_ = false;   // the latest command runs (not denied, cancelled or disabled)
   bool command_started_ = false;  // any command (other than 0) started since power-up
   uint64_t start_cycle_ = 0;
   bool error_ = false;
@@ -266,10 +266,10 @@ class MotionCore {
   bool done_latched_ = false;
   PlcState plc_ = PlcState::kStandstill;
   int window_cycles_ = 0;
-  bool profile_done_ = false;  // I85
-  bool speed_reached_ = false;  // I183
-  bool in_window_ = false;      // I180
-  bool standstill_ = true;      // I199
+  bool profile_done_ = false;          // I85
+  bool speed_reached_ = false;         // I183
+  bool in_window_ = false;             // I180
+  bool standstill_ = true;             // I199
   bool velocity_limited_ = false;      // I190
   bool dynamics_limited_ = false;      // I191
   bool override_limited_ = false;      // I193 (override > 100 % clipped, or direction filter)
@@ -297,7 +297,7 @@ class MotionCore {
   // Motion state.
   Drive drive_ = Drive::kRest;
   motion::Profile profile_;
-  double t_ = 0;  // seconds since the profile start
+  double t_ = 0;         // seconds since the profile start
   double ramp_end_ = 0;  // end of the last segment (velocity profiles: ramp finished)
   double velocity_target_ = 0;
   bool limit_stop_ = false;  // quick stop by limit-switch fault inside 7-10 (decision 1153)

@@ -40,7 +40,7 @@ void MotionCore::StartCommand(Command command) {
   position_limited_ = acceleration_limited_ = torque_limited_ = false;
   stop_held_by_override_ = false;
   event78_warning_ = false;
-  brake_timer_.reset();  // a start within I42 restarts without engaging (L373)
+  brake_timer_.reset();     // a start within I42 restarts without engaging (L373)
   Set("I82", Get("I400"));  // motion ID (L187)
 
   if (!power_.operation_enabled()) {
@@ -67,16 +67,31 @@ void MotionCore::StartCommand(Command command) {
   switch (command) {
     case Command::kMoveAbsolute:
     case Command::kMoveRelative:
-    case Command::kMoveAdditive: StartPositioning(command); break;
-    case Command::kMoveVelocity: StartMoveVelocity(); break;
+    case Command::kMoveAdditive:
+      StartPositioning(command);
+      break;
+    case Command::kMoveVelocity:
+      StartMoveVelocity();
+      break;
     case Command::kStop:
-    case Command::kHalt: StartStopOrHalt(command); break;
-    case Command::kHome: StartHome(); break;
+    case Command::kHalt:
+      StartStopOrHalt(command);
+      break;
+    case Command::kHome:
+      StartHome();
+      break;
     case Command::kCyclicSpeed:
-    case Command::kCyclicPosition: StartCyclic(command); break;
-    case Command::kMoveSpeed: StartMoveSpeed(); break;
-    case Command::kTorqueControl: StartTorque(); break;
-    case Command::kDoNothing: break;
+    case Command::kCyclicPosition:
+      StartCyclic(command);
+      break;
+    case Command::kMoveSpeed:
+      StartMoveSpeed();
+      break;
+    case Command::kTorqueControl:
+      StartTorque();
+      break;
+    case Command::kDoNothing:
+      break;
   }
 }
 
@@ -86,8 +101,7 @@ std::optional<std::pair<Cause, std::string>> MotionCore::CheckDenial(Command com
   const double acceleration = Get("I405");
   const double deceleration = Get("I406");
   const double jerk = Get("I407");
-  const bool positioning = command == Command::kMoveAbsolute ||
-                           command == Command::kMoveRelative ||
+  const bool positioning = command == Command::kMoveAbsolute || command == Command::kMoveRelative ||
                            command == Command::kMoveAdditive;
   auto zero_maxima = [&]() -> std::optional<Denial> {
     if (Get("I11") == 0) return Denial{Cause::kZeroMaximumValue, "maximum acceleration I11 = 0"};
@@ -182,7 +196,8 @@ std::optional<std::pair<Cause, std::string>> MotionCore::ComputeTarget(Command c
   }
   const double length = Get("I01");
   if (position < 0 || position >= length) {  // G-33: [0, I01)
-    return std::pair{Cause::kRevolutionLength, std::string("position outside revolution length I01")};
+    return std::pair{Cause::kRevolutionLength,
+                     std::string("position outside revolution length I01")};
   }
   const double x = Modulo(set_.position);
   double shortest = PositiveModulo(position - x + length / 2, length) - length / 2;
@@ -234,8 +249,8 @@ void MotionCore::Cancel(Cause cause, std::string text) { Deny(cause, std::move(t
 
 void MotionCore::QuickStop() {
   // G-20: configurable quick-stop deceleration (default I11) and jerk (default I16).
-  const double dec = options_.quick_stop_deceleration > 0 ? options_.quick_stop_deceleration
-                                                          : Get("I11");
+  const double dec =
+      options_.quick_stop_deceleration > 0 ? options_.quick_stop_deceleration : Get("I11");
   const double jerk = options_.quick_stop_jerk > 0 ? options_.quick_stop_jerk : Get("I16");
   limit_stop_ = false;
   quick_stopping_ = true;
@@ -288,16 +303,16 @@ void MotionCore::PlanPositioning() {
   // §8.2 limits and flags (L236-247).
   velocity_limited_ = cmd_velocity_ > vmax_abs;
   override_limited_ = !velocity_limited_ && cmd_velocity_ * factor > vmax_abs;
-  dynamics_limited_ = cmd_acceleration_ > Get("I11") || cmd_deceleration_ > Get("I11") ||
-                      cmd_jerk_ > Get("I16");
-  motion::JerkLimits limits{std::min(cmd_velocity_ * factor, vmax_abs),
-                            std::min(cmd_acceleration_, Get("I11")),
-                            std::min(cmd_deceleration_, Get("I11")), std::min(cmd_jerk_, Get("I16"))};
+  dynamics_limited_ =
+      cmd_acceleration_ > Get("I11") || cmd_deceleration_ > Get("I11") || cmd_jerk_ > Get("I16");
+  motion::JerkLimits limits{
+      std::min(cmd_velocity_ * factor, vmax_abs), std::min(cmd_acceleration_, Get("I11")),
+      std::min(cmd_deceleration_, Get("I11")), std::min(cmd_jerk_, Get("I16"))};
   if (limits.max_velocity <= 0) {
     // Override 0: the axis decelerates and waits until the override is raised (L359, G-25).
     stop_held_by_override_ = true;
-    SetProfile(AsProfile(
-        motion::JerkVelocityProfile::Stop(set_, limits.deceleration, limits.jerk)));
+    SetProfile(
+        AsProfile(motion::JerkVelocityProfile::Stop(set_, limits.deceleration, limits.jerk)));
     return;
   }
   stop_held_by_override_ = false;
@@ -313,16 +328,15 @@ void MotionCore::StartMoveVelocity() {
   brake_engaged_ = false;
   plc_ = PlcState::kContinuousMotion;
   velocity_limited_ = std::abs(cmd_velocity_) > Get("I10");
-  override_limited_ =
-      !velocity_limited_ && std::abs(cmd_velocity_) * OverrideFactor() > Get("I10");
+  override_limited_ = !velocity_limited_ && std::abs(cmd_velocity_) * OverrideFactor() > Get("I10");
   if (Get("I113") == 1) {
     drive_ = Drive::kCyclicTakeover;  // L859: ramps ignored
-    velocity_target_ = cmd_sign(cmd_velocity_) *
-                       std::min(std::abs(cmd_velocity_) * OverrideFactor(), Get("I10"));
+    velocity_target_ =
+        cmd_sign(cmd_velocity_) * std::min(std::abs(cmd_velocity_) * OverrideFactor(), Get("I10"));
     return;
   }
-  dynamics_limited_ = cmd_acceleration_ > Get("I11") || cmd_deceleration_ > Get("I11") ||
-                      cmd_jerk_ > Get("I16");
+  dynamics_limited_ =
+      cmd_acceleration_ > Get("I11") || cmd_deceleration_ > Get("I11") || cmd_jerk_ > Get("I16");
   PlanVelocity(cmd_velocity_, cmd_acceleration_, cmd_deceleration_, cmd_jerk_);
 }
 
@@ -352,7 +366,7 @@ void MotionCore::StartStopOrHalt(Command command) {
   dynamics_limited_ = dec > Get("I11") || jerk > Get("I16");
   // Override ignored (L1068, L1941).
   SetProfile(AsProfile(motion::JerkVelocityProfile::Stop(set_, std::min(dec, Get("I11")),
-                                                          std::min(jerk, Get("I16")))));
+                                                         std::min(jerk, Get("I16")))));
 }
 
 void MotionCore::StartMoveSpeed() {
@@ -412,7 +426,7 @@ void MotionCore::PlanMoveSpeed() {
   override_limited_ = filtered || std::abs(v) * factor > Get("I10");  // I193 (L1512)
   acceleration_limited_ =
       movespeed_acceleration_ > Get("I11") || movespeed_deceleration_ > Get("I11");  // I195
-  dynamics_limited_ = cmd_jerk_ > Get("I16");                                       // I191
+  dynamics_limited_ = cmd_jerk_ > Get("I16");                                        // I191
   PlanVelocity(v, movespeed_acceleration_, movespeed_deceleration_, cmd_jerk_);
 }
 

@@ -19,27 +19,43 @@ struct Method {
 // A586 (CiA 402 homing methods) → the letter methods of Tab. 22 (G-22 [P], decision 1150).
 std::optional<Method> CiaMethod(int a586) {
   switch (a586) {
-    case 1: return Method{2, -1, true};   // A: negative limit switch + zero pulse
-    case 2: return Method{2, +1, true};   // E: positive limit switch + zero pulse
+    case 1:
+      return Method{2, -1, true};  // A: negative limit switch + zero pulse
+    case 2:
+      return Method{2, +1, true};  // E: positive limit switch + zero pulse
     case 3:
-    case 7: return Method{1, +1, true};   // F / I: reference switch, positive, zero pulse
+    case 7:
+      return Method{1, +1, true};  // F / I: reference switch, positive, zero pulse
     case 5:
-    case 11: return Method{1, -1, true};  // B / K: reference switch, negative, zero pulse
-    case 17: return Method{2, -1, false};  // C
-    case 18: return Method{2, +1, false};  // G
+    case 11:
+      return Method{1, -1, true};  // B / K: reference switch, negative, zero pulse
+    case 17:
+      return Method{2, -1, false};  // C
+    case 18:
+      return Method{2, +1, false};  // G
     case 19:
-    case 23: return Method{1, +1, false};  // H / J
+    case 23:
+      return Method{1, +1, false};  // H / J
     case 21:
-    case 27: return Method{1, -1, false};  // D / L
-    case 33: return Method{3, -1, true};   // M: zero pulse, negative
-    case 34: return Method{3, +1, true};   // N: zero pulse, positive
+    case 27:
+      return Method{1, -1, false};  // D / L
+    case 33:
+      return Method{3, -1, true};  // M: zero pulse, negative
+    case 34:
+      return Method{3, +1, true};  // N: zero pulse, positive
     case 35:
-    case 37: return Method{5, +1, false};  // O: set reference
-    case -1: return Method{4, -1, false};  // R: torque/force stop, negative
-    case -2: return Method{4, +1, false};  // P
-    case -3: return Method{4, -1, true};   // S
-    case -4: return Method{4, +1, true};   // Q
-    default: return std::nullopt;
+    case 37:
+      return Method{5, +1, false};  // O: set reference
+    case -1:
+      return Method{4, -1, false};  // R: torque/force stop, negative
+    case -2:
+      return Method{4, +1, false};  // P
+    case -3:
+      return Method{4, -1, true};  // S
+    case -4:
+      return Method{4, +1, true};  // Q
+    default:
+      return std::nullopt;
   }
 }
 
@@ -143,9 +159,12 @@ void MotionCore::StepHoming() {
   const int dir = homing_.direction;
   auto feature_active = [&] {
     switch (homing_.type) {
-      case 1: return ReferenceSwitchActive();
-      case 2: return dir > 0 ? PositiveLimitActive() : NegativeLimitActive();
-      default: return false;
+      case 1:
+        return ReferenceSwitchActive();
+      case 2:
+        return dir > 0 ? PositiveLimitActive() : NegativeLimitActive();
+      default:
+        return false;
     }
   };
   // Machine position of the edge where the feature is left towards the start side.
@@ -212,8 +231,8 @@ void MotionCore::StepHoming() {
       const double hi = std::max(previous_machine, machine);
       const double k = std::ceil((lo - options_.zero_pulse_offset) / spacing);
       const double pulse = options_.zero_pulse_offset + k * spacing;
-      const bool crossed = machine > previous_machine ? (pulse > lo && pulse <= hi)
-                                                      : (pulse >= lo && pulse < hi);
+      const bool crossed =
+          machine > previous_machine ? (pulse > lo && pulse <= hi) : (pulse >= lo && pulse < hi);
       if (crossed) ReferenceAt(pulse);
       break;
     }
@@ -221,10 +240,9 @@ void MotionCore::StepHoming() {
       if (!Moving()) {
         if (Get("I43") == 1) {  // travel to the reference position (L1278)
           homing_.phase = HomingPhase::kToReference;
-          motion::JerkLimits limits{std::max(std::min(Get("I32"), Get("I10")), 1e-9),
-                                    std::min(Get("I39"), Get("I11")),
-                                    std::min(Get("I39"), Get("I11")),
-                                    std::min(Get("I44"), Get("I16"))};
+          motion::JerkLimits limits{
+              std::max(std::min(Get("I32"), Get("I10")), 1e-9), std::min(Get("I39"), Get("I11")),
+              std::min(Get("I39"), Get("I11")), std::min(Get("I44"), Get("I16"))};
           absl::StatusOr<motion::JerkProfile> p =
               motion::JerkProfile::Plan(set_, Get("I34"), limits);
           if (p.ok()) {
@@ -341,7 +359,7 @@ void MotionCore::StepCyclicSpeed() {
     v = 0;  // L1361, L1396-1398
     filtered = true;
   }
-  override_limited_ = filtered;  // I193 (L1365)
+  override_limited_ = filtered;                         // I193 (L1365)
   v = cmd_sign(v) * std::min(std::abs(v), Get("I10"));  // L1358
   const double step = dt();
   set_.acceleration = (v - set_.velocity) / step;
@@ -366,8 +384,8 @@ void MotionCore::StepCyclicPosition() {
     delta = 0;  // hold (L1786, L1820-1822)
     filtered = true;
   }
-  position_limited_ = filtered;  // I192
-  override_limited_ = filtered;  // I193
+  position_limited_ = filtered;                    // I192
+  override_limited_ = filtered;                    // I193
   const double max_step = Get("I10") * step_time;  // L1779
   delta = cmd_sign(delta) * std::min(std::abs(delta), max_step);
   const double v = delta / step_time;

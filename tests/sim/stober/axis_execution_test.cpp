@@ -10,8 +10,8 @@
 namespace drivegw::sim::stober {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::Fixture;
+using ::testing::HasSubstr;
 using testing::TestAxis;
 
 TEST(StoberAxis, CT01_RisingEdgeStartsLevelDoesNotRestart) {

@@ -10,8 +10,8 @@
 namespace drivegw::sim::stober {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::Fixture;
+using ::testing::HasSubstr;
 using testing::TestAxis;
 
 TEST(StoberAxis, CT52_HomeOnlyFromStandstill) {
@@ -202,9 +202,8 @@ TEST(StoberAxis, CT58_CyclicCommandsNeverDenied) {
 }
 
 TEST(StoberAxis, CT59_DoneFromTheSecondCycle) {
-  const std::pair<Command, int> cases[] = {{Command::kCyclicSpeed, 11},
-                                           {Command::kCyclicPosition, 11},
-                                           {Command::kTorqueControl, 4}};
+  const std::pair<Command, int> cases[] = {
+      {Command::kCyclicSpeed, 11}, {Command::kCyclicPosition, 11}, {Command::kTorqueControl, 4}};
   for (auto [command, state] : cases) {
     TestAxis axis(Fixture::kCyc);
     const char* id = command == Command::kCyclicPosition ? "I421" : "I426";
@@ -279,7 +278,7 @@ TEST(StoberAxis, CT62b_DroppedTelegramsAreExtrapolated) {
   Feed(axis, "I426", 3, [](int i) { return 100.0 + 10 * i; });  // 100, 110, 120
   axis.core().DropCyclicSetValues(true);
   Feed(axis, "I426", 2, [](int) { return 500.0; });  // lost
-  EXPECT_NEAR(axis.R("E07"), 140, 1e-9);  // linear continuation
+  EXPECT_NEAR(axis.R("E07"), 140, 1e-9);             // linear continuation
   axis.core().DropCyclicSetValues(false);
   Feed(axis, "I426", 2, [](int) { return 150.0; });
   EXPECT_NEAR(axis.R("E07"), 150, 1e-9);
@@ -368,7 +367,7 @@ TEST(StoberAxis, CT66b_TorqueRampsAndLoad) {
   axis.Advance(100);
   EXPECT_NEAR(axis.R("E90"), 50, 1e-9);
   EXPECT_GT(axis.R("I88"), 0);  // 50 % drive against 20 % load
-  axis.W("I428", 10);  // below the load: decelerates
+  axis.W("I428", 10);           // below the load: decelerates
   const double v = axis.R("I88");
   axis.Advance(20);
   EXPECT_LT(axis.R("I88"), v);

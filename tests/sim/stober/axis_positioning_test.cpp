@@ -11,8 +11,8 @@
 namespace drivegw::sim::stober {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::Fixture;
+using ::testing::HasSubstr;
 using testing::TestAxis;
 
 // Largest |Δa|/Δt between consecutive cycles while `run` advances the axis.
@@ -178,19 +178,19 @@ TEST(StoberAxis, CT23_MoveAdditiveStartingPointTable11) {
   const Command abs = Command::kMoveAbsolute;
   const Command add = Command::kMoveAdditive;
   const Command rel = Command::kMoveRelative;
-  EXPECT_DOUBLE_EQ(RunRow(0, abs, 1000, Interrupt::kNone, 0).end, 1200);  // 1
+  EXPECT_DOUBLE_EQ(RunRow(0, abs, 1000, Interrupt::kNone, 0).end, 1200);      // 1
   EXPECT_DOUBLE_EQ(RunRow(0, abs, 1000, Interrupt::kStop, 578.9).end, 1200);  // 2
-  RowResult r3 = RunRow(0, abs, 1000, Interrupt::kEnableOff, 578.9);  // 3: 778.9
+  RowResult r3 = RunRow(0, abs, 1000, Interrupt::kEnableOff, 578.9);          // 3: 778.9
   EXPECT_NEAR(r3.at_interrupt, 578.9, 0.5);
   EXPECT_DOUBLE_EQ(r3.end, r3.at_interrupt + 200);
-  EXPECT_DOUBLE_EQ(RunRow(0, add, 200, Interrupt::kNone, 0).end, 400);  // 4
+  EXPECT_DOUBLE_EQ(RunRow(0, add, 200, Interrupt::kNone, 0).end, 400);     // 4
   EXPECT_DOUBLE_EQ(RunRow(0, add, 200, Interrupt::kStop, 91.2).end, 400);  // 5
-  RowResult r6 = RunRow(0, add, 200, Interrupt::kEnableOff, 91.2);  // 6: 291.2
+  RowResult r6 = RunRow(0, add, 200, Interrupt::kEnableOff, 91.2);         // 6: 291.2
   EXPECT_NEAR(r6.at_interrupt, 91.2, 0.5);
   EXPECT_DOUBLE_EQ(r6.end, r6.at_interrupt + 200);
-  EXPECT_DOUBLE_EQ(RunRow(9.5, rel, 200, Interrupt::kNone, 0).end, 409.5);  // 7
+  EXPECT_DOUBLE_EQ(RunRow(9.5, rel, 200, Interrupt::kNone, 0).end, 409.5);     // 7
   EXPECT_DOUBLE_EQ(RunRow(9.5, rel, 200, Interrupt::kStop, 91.2).end, 409.5);  // 8
-  RowResult r9 = RunRow(9.5, rel, 200, Interrupt::kEnableOff, 91.2);  // 9: 291.2
+  RowResult r9 = RunRow(9.5, rel, 200, Interrupt::kEnableOff, 91.2);           // 9: 291.2
   EXPECT_NEAR(r9.at_interrupt, 91.2, 0.5);
   EXPECT_DOUBLE_EQ(r9.end, r9.at_interrupt + 200);
 }
@@ -245,7 +245,7 @@ TEST(StoberAxis, CT25_DoneNeedsProfileDoneAndWindowHeldForI87) {
   DoneTiming slow = Timing(0.002, 50);
   ASSERT_GT(slow.done, 0);
   EXPECT_TRUE(slow.moving_when_in_window);
-  EXPECT_LT(slow.profile_done, slow.done);  // example 2: I85 first
+  EXPECT_LT(slow.profile_done, slow.done);    // example 2: I85 first
   EXPECT_EQ(slow.done - slow.in_window, 50);  // I92 50 ms after I180
 }
 

@@ -155,11 +155,13 @@ TEST(StoberAxis, CT41_MoveSpeedLimitFlags) {
   axis.W("I407", 100000);
   axis.Start(Command::kMoveSpeed);
   double max_v = 0, max_a = 0;
-  axis.RunUntil([&] {
-    max_v = std::max(max_v, std::abs(axis.R("E07")));
-    max_a = std::max(max_a, std::abs(axis.core().set_acceleration()));
-    return false;
-  }, 500);
+  axis.RunUntil(
+      [&] {
+        max_v = std::max(max_v, std::abs(axis.R("E07")));
+        max_a = std::max(max_a, std::abs(axis.core().set_acceleration()));
+        return false;
+      },
+      500);
   EXPECT_NEAR(max_v, 1000, 1e-9);
   EXPECT_LE(max_a, 10000 * (1 + 1e-9));
   EXPECT_EQ(axis.R("I193"), 1);

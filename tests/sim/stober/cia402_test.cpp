@@ -82,8 +82,11 @@ TEST(StoberCia402, FaultReactionFaultAndResetOnRisingEdgeOnly) {
 
 TEST(StoberCia402, StatusWordExtraBits) {
   PowerStateMachine m(true);
-  StatusWordInputs in{.warning = true, .target_reached = true, .internal_limit_active = true,
-                      .op_mode_bit12 = true, .op_mode_bit13 = true};
+  StatusWordInputs in{.warning = true,
+                      .target_reached = true,
+                      .internal_limit_active = true,
+                      .op_mode_bit12 = true,
+                      .op_mode_bit13 = true};
   EXPECT_EQ(m.StatusWord(in), kRemote | 0x37 | sw::kWarning | sw::kTargetReached |
                                   sw::kInternalLimitActive | sw::kOpModeSpecific12 |
                                   sw::kOpModeSpecific13);
@@ -126,7 +129,9 @@ TEST(StoberCia402, ProfilePositionModeThroughCiA402Objects) {
   const int status = static_cast<int>(axis.R("A516"));
   EXPECT_NE(status & sw::kOpModeSpecific12, 0);  // set-point acknowledge
   EXPECT_EQ(status & sw::kTargetReached, 0);
-  ASSERT_GT(axis.RunUntil([&] { return (static_cast<int>(axis.R("A516")) & sw::kTargetReached) != 0; }), 0);
+  ASSERT_GT(
+      axis.RunUntil([&] { return (static_cast<int>(axis.R("A516")) & sw::kTargetReached) != 0; }),
+      0);
   EXPECT_EQ(axis.R("I80"), 300);
   EXPECT_EQ(axis.R("A545"), 300);
   // Relative (A515.6 = 1, A621.0-1 = 0/1) and additive (0/0) selections.
