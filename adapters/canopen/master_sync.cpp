@@ -154,8 +154,9 @@ void CanopenMaster::RunSync(Duration period, uint8_t overflow) {
       }
       for (const auto& [id, listener] : listeners) {
         {
+          // A stop request does not skip listeners: every SYNC that left gets its RPDOs.
           std::lock_guard l(sync_mu_);
-          if (!sync_listeners_.contains(id) || sync_stop_) continue;
+          if (!sync_listeners_.contains(id)) continue;
         }
         listener(event);
       }

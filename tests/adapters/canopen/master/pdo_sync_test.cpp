@@ -144,7 +144,9 @@ TEST(CanopenMasterSync, CountedSyncsEachFollowedByTheListenersRpdo) {
   ASSERT_TRUE(WaitFor([&] {
     return b.node->frames_with_id(0x080).size() == c.sync_sent &&
            b.node->frames_with_id(0x205).size() == c.sync_sent;
-  }));
+  })) << "sync_sent "
+      << c.sync_sent << ", node saw " << b.node->frames_with_id(0x080).size() << " SYNC and "
+      << b.node->frames_with_id(0x205).size() << " RPDO";
   EXPECT_EQ(static_cast<uint64_t>(listener_calls.load()), c.sync_sent);
   EXPECT_GE(c.sync_sent, 20u);
   EXPECT_EQ(c.sync_send_errors, 0u);
