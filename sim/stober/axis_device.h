@@ -1,0 +1,84 @@
+// AxisDevice: the simulated STOBER axis as a CANopen device (issue 5): binds the pure
+// MotionCore into a SlaveNode's object dictionary per the shared object map
+// (adapters/stober/object_map.h): every catalogue parameter and CiA 402 object with read/write
+// hooks into the core, the packed status object 4000h, the default PDO layout, the motion core
+// advanced in A150 cycles from Tick(dt), EMCY on faults, reset on NMT reset node.
+// Gap choices: decisions 1176-1181.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "adapters/core/clock.h"
+#include "adapters/stober/object_map.h"
+#include "sim/canopen/device_model.h"
+#include "sim/canopen/node.h"
+#include "sim/stober/motion_core.h"
+
+namespace drivegw::sim::stober {
+
+// EMCY codes of the simulated axis (decision 1178).
+inline constexpr uint16_t kEmcyFollowingError = 0x8611;  // CiA 402: following error
+inline constexpr uint16_t kEmcyLimitSwitch = 0x8612;     // CiA 402: reference limit
+// Motion-core errors (I91 = 1): FF00h + I90 cause, manufacturer-specific range of CiA 301.
+inline constexpr uint16_t kEmcyMotionCoreBase = 0xFF00;
+inline constexpr uint8_t kErrorRegisterProfile = 0x20;       // 1001h bit 5: device profile
+inline constexpr uint8_t kErrorRegisterManufacturer = 0x80;  // 1001h bit 7
+
+struct AxisDeviceOptions {
+  MotionCoreOptions core;
+  std::optional<double> cycle_ms;  // A150 at power-on (default: the catalogue's 1 ms)
+  bool endless = false;            // I00 = 1 with I01 = revolution at power-on
+  double revolution = 360;
+};
+
+// Every callback runs on the SlaveServer's I/O thread under its lock (decision 1126); so do the
+// fault-injection methods, which take the node for the EMCY they raise (AxisServer calls them
+// through SlaveServer::WithNode).
+class AxisDevice : public canopen::DeviceModel {
+ public:
+  explicit AxisDevice(AxisDeviceOptions options = {});
+  // The options' power-on writes (A150, I00, I01) against the catalogue: InvalidArgument naming
+  // the parameter and the limit.
+  static absl::Status Validate(const AxisDeviceOptions& options);
+
+  absl::Status Configure(canopen::SlaveNode& node) override;
+  void Tick(canopen::SlaveNode& node, Duration dt) override;
+  void OnResetApplication(canopen::SlaveNode& node) override;
+
+  MotionCore& core() { return *core_; }
+  const MotionCore& core() const { return *core_; }
+  // TPDO1's packed status word (4000h) as the model sees it now.
+  uint32_t StatusFlags() const;
+
+  // ---- fault injection ----
+  // A following error: CiA 402 fault (Fault reaction active → Fault) and EMCY 8611h.
+  void InjectFollowingError(canopen::SlaveNode& node);
+  // Forces the hardware limit switch signal (nullopt: follow the simulated position); the EMCY
+  // follows from the next cycle's I441/I442.
+  void ForceLimitSwitch(bool positive, std::optional<bool> active);
+
+ private:
+  absl::Status AddObject(canopen::SlaveNode& node, const drivegw::stober::ObjectBinding& b);
+  static absl::StatusOr<std::unique_ptr<MotionCore>> MakeCore(const AxisDeviceOptions& options);
+  void Restart();
+  void AfterCycle(canopen::SlaveNode& node);
+
+  AxisDeviceOptions options_;
+  std::unique_ptr<MotionCore> core_;
+  Duration carry_{};  // time not yet spent in whole A150 cycles
+  // Fault edges seen after the previous cycle (EMCY on a rising edge, decision 1178).
+  bool error_ = false;
+  bool positive_limit_ = false;
+  bool negative_limit_ = false;
+  bool fault_ = false;
+  bool emcy_active_ = false;
+  uint32_t last_flags_ = 0;
+  uint16_t last_status_word_ = 0;
+  int last_plc_ = 0;
+};
+
+}  // namespace drivegw::sim::stober
