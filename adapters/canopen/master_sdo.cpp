@@ -4,11 +4,11 @@
 #include <algorithm>
 #include <utility>
 
-#include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "adapters/canopen/cob_id.h"
 #include "adapters/canopen/master.h"
+#include "adapters/canopen/status_util.h"
 #include "adapters/core/log.h"
 
 namespace drivegw::canopen {
@@ -20,14 +20,6 @@ std::string Describe(const SdoClientTransfer& t, uint8_t node) {
   return absl::StrFormat("sdo %s 0x%04X:%02X node %d",
                          t.kind() == SdoTransferKind::kUpload ? "upload" : "download", t.index(),
                          t.sub(), node);
-}
-
-// `status` with `prefix` in front of its message; code and payloads (the abort code) kept.
-absl::Status Annotate(const absl::Status& status, const std::string& prefix) {
-  absl::Status out(status.code(), absl::StrCat(prefix, ": ", status.message()));
-  status.ForEachPayload(
-      [&](absl::string_view url, const absl::Cord& payload) { out.SetPayload(url, payload); });
-  return out;
 }
 
 std::vector<uint8_t> LittleEndian(uint64_t value, size_t bytes) {
@@ -85,10 +77,9 @@ void CanopenMaster::PumpSdoLocked(Node& n, TimePoint now) {
     if (r.started) return;
     if (now >= r.deadline) {
       ++counters_.sdo_timeouts;
-      CompleteSdoLocked(
-          n,
-          Annotate(absl::DeadlineExceededError("the caller's deadline passed before the transfer"),
-                   r.context));
+      CompleteSdoLocked(n, AnnotateStatus(absl::DeadlineExceededError(
+                                              "the caller's deadline passed before the transfer"),
+                                          r.context));
       continue;
     }
     r.started = true;
@@ -209,7 +200,7 @@ TimePoint CanopenMaster::ServiceSdoLocked(Node& n, TimePoint now, TimePoint next
 void CanopenMaster::FailAllSdoLocked(const absl::Status& status) {
   for (auto& [id, n] : nodes_) {
     while (!n.sdo.empty()) {
-      CompleteSdoLocked(n, Annotate(status, n.sdo.front()->context));
+      CompleteSdoLocked(n, AnnotateStatus(status, n.sdo.front()->context));
     }
   }
 }
@@ -305,92 +296,6 @@ absl::Status CanopenMaster::WriteU32(uint8_t node, uint16_t index, uint8_t sub, 
 absl::Status CanopenMaster::WriteI32(uint8_t node, uint16_t index, uint8_t sub, int32_t value,
                                      TimePoint deadline) {
   return Download(node, index, sub, LittleEndian(static_cast<uint32_t>(value), 4), deadline);
-}
-
-// ---------------------------------------------------------------------------------------------
-// PDO.
-
-absl::Status CanopenMaster::ConfigurePdo(uint8_t node, PdoKind kind, uint16_t number,
-                                         const PdoCommParams& comm,
-                                         std::span<const PdoMappingEntry> mapping,
-                                         TimePoint deadline) {
-  absl::StatusOr<std::vector<SdoWrite>> writes = MappingWrites(kind, number, node, comm, mapping);
-  if (!writes.ok()) return writes.status();
-  uint16_t cob = comm.cob_id;
-  if (cob == 0) {
-    absl::StatusOr<uint16_t> def = DefaultPdoCobId(kind, number, node);
-    if (!def.ok()) return def.status();
-    cob = *def;
-  }
-  const char* name = kind == PdoKind::kTpdo ? "tpdo" : "rpdo";
-  for (size_t i = 0; i < writes->size(); ++i) {
-    const SdoWrite& w = (*writes)[i];
-    if (absl::Status s = Download(node, w.index, w.sub, w.data, deadline); !s.ok()) {
-      // CiA 301 §7.2.2.4: the PDO stays invalid (bit 31 set by write 1) until the sequence ends.
-      return Annotate(s,
-                      absl::StrFormat("canopen configure %s%d of node %d, write %d of %d "
-                                      "(0x%04X:%02X)",
-                                      name, number, node, i + 1, writes->size(), w.index, w.sub));
-    }
-  }
-  std::lock_guard lock(mu_);
-  const std::pair<uint8_t, uint16_t> key{node, number};
-  if (kind == PdoKind::kTpdo) {
-    if (auto old = tpdo_cob_.find(key); old != tpdo_cob_.end() && old->second != 0) {
-      tpdo_by_cob_.erase(old->second);
-    }
-    tpdo_cob_[key] = comm.valid ? cob : 0;
-    if (comm.valid) tpdo_by_cob_[cob] = key;
-  } else {
-    rpdo_cob_[key] = comm.valid ? cob : 0;
-  }
-  log::Debug("canopen_pdo_configured", log::Fields()
-                                           .Add("bus", bus_name_)
-                                           .Add("node", static_cast<int>(node))
-                                           .Add("pdo", absl::StrCat(name, number))
-                                           .Add("cob_id", absl::StrFormat("0x%03X", cob))
-                                           .Add("valid", comm.valid));
-  return absl::OkStatus();
-}
-
-absl::Status CanopenMaster::SendRpdo(uint8_t node, uint16_t number,
-                                     std::span<const uint8_t> payload) {
-  const std::string what = absl::StrCat("canopen rpdo", number, " of node ", node);
-  if (absl::Status s = ValidateNodeId(node, "rpdo.node_id"); !s.ok()) return s;
-  if (number == 0 || number > kPdoMaxNumber) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(what, ": number ", number, " outside 1..", kPdoMaxNumber));
-  }
-  if (payload.size() > transport::kCanMaxDlc) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(what, ": ", payload.size(), " bytes exceed ", transport::kCanMaxDlc));
-  }
-  uint16_t cob = 0;
-  {
-    std::lock_guard lock(mu_);
-    if (auto it = rpdo_cob_.find({node, number}); it != rpdo_cob_.end()) {
-      if (it->second == 0) {
-        return absl::FailedPreconditionError(absl::StrCat(what, ": configured invalid"));
-      }
-      cob = it->second;
-    }
-  }
-  if (cob == 0) {
-    absl::StatusOr<uint16_t> def = DefaultPdoCobId(PdoKind::kRpdo, number, node);
-    if (!def.ok()) {
-      return absl::FailedPreconditionError(
-          absl::StrCat(what,
-                       ": no COB-ID (only RPDO 1..4 have a predefined one; ConfigurePdo "
-                       "first)"));
-    }
-    cob = *def;
-  }
-  if (absl::Status s = SendFrame(transport::MakeCanFrame(cob, payload)); !s.ok()) {
-    return absl::UnavailableError(absl::StrCat(what, ": ", s.message()));
-  }
-  std::lock_guard lock(mu_);
-  ++counters_.rpdo_sent;
-  return absl::OkStatus();
 }
 
 }  // namespace drivegw::canopen
