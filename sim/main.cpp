@@ -25,6 +25,7 @@
 #include "sim/linmot/server.h"
 #include "sim/linmot_devicenet/cli.h"
 #include "sim/linmot_devicenet/server.h"
+#include "sim/stober/server.h"
 #include "sim/trinamic/can_server.h"
 #include "sim/trinamic/server.h"
 
@@ -40,6 +41,7 @@ constexpr const char* kUsage = R"(usage: drivegw-sim linmot [flags]
        drivegw-sim linmot-devicenet [flags]   (drivegw-sim linmot-devicenet --help)
        drivegw-sim trinamic --pty PATH | --can SPEC [--pty PATH] [trinamic flags]
                             (drivegw-sim trinamic --help)
+       drivegw-sim stober --can SPEC --node N [stober flags]   (drivegw-sim stober --help)
 
 Simulated LinMot drive(s) speaking LinUDP V2 on real UDP sockets (linmot-linudp.md, linmot-mc.md).
 
@@ -172,7 +174,7 @@ Flags ParseFlags(int argc, char** argv) {
     }
   }
   if (f.family.empty()) {
-    UsageError("missing the drive family (supported: linmot, linmot-devicenet)");
+    UsageError("missing the drive family (supported: linmot, linmot-devicenet, trinamic, stober)");
   }
   if (f.family != "linmot") {
     UsageError(
@@ -458,11 +460,98 @@ int RunTrinamic(int argc, char** argv) {
   return 0;
 }
 
+
+constexpr const char* kStoberUsage =
+    R"(usage: drivegw-sim stober --can udp:GROUP:PORT|socketcan:IFACE --node N [flags]
+
+A simulated STOBER axis (stober-motion.md, issue 5) as a CANopen CiA 402 slave: NMT, SDO server,
+PDOs (power-on mapping = the gateway's default layout, adapters/stober/object_map.h), heartbeat
+producer (1017h), EMCY; the STOBER parameters at 2000h + group x 200h + line, the CiA 402 objects
+at 6040h... The drive powers up in "Not ready to switch on", PLCopen state I89 = 0.
+
+flags:
+  --can SPEC           the CAN bus: udp:GROUP:PORT (UDP multicast) or socketcan:IFACE
+  --node N             CANopen node id 1..127
+  --endless            endless (modulo) axis: I00 = 1
+  --revolution U       revolution length I01 of the endless axis (default 360)
+  --cycle-ms MS        motion-core cycle time A150, 0.125..32 (default 1)
+  --heartbeat-ms MS    heartbeat producer time 1017h at power-on, 0..65535 (default 0: off)
+  --enabled            start in CiA 402 "Operation enabled", I89 = 2 (the reference's fixtures)
+)";
+
+// `drivegw-sim stober`: one simulated STOBER axis on a CAN bus (issue 5; decisions 1171-1181).
+int RunStober(int argc, char** argv) {
+  namespace ssim = drivegw::sim::stober;
+  ssim::AxisServerOptions o;
+  std::optional<drivegw::CanBusConfig> can;
+  std::optional<int64_t> node;
+  std::optional<double> revolution;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "stober") continue;
+    if (arg == "--help" || arg == "-h") {
+      std::cout << kStoberUsage;
+      return 0;
+    }
+    if (arg == "--endless") {
+      o.axis.endless = true;
+      continue;
+    }
+    if (arg == "--enabled") {
+      o.axis.core.start_operation_enabled = true;
+      continue;
+    }
+    if (i + 1 >= argc) UsageError(absl::StrCat(arg, ": missing value"));
+    const std::string value = argv[++i];
+    if (arg == "--can") {
+      auto parsed = drivegw::transport::ParseCanSpec(value);
+      if (!parsed.ok()) UsageError(absl::StrCat("--can: ", parsed.status().message()));
+      can = *std::move(parsed);
+    } else if (arg == "--node") {
+      node = ParseInt(arg, value, 1, 127);
+    } else if (arg == "--revolution") {
+      revolution = ParseDouble(arg, value);
+      if (!(*revolution > 0)) UsageError(absl::StrCat("--revolution: ", value, " must be > 0"));
+    } else if (arg == "--cycle-ms") {
+      const double ms = ParseDouble(arg, value);
+      if (!(ms >= 0.125 && ms <= 32)) {
+        UsageError(absl::StrCat("--cycle-ms: ", value, " is outside [0.125, 32]"));
+      }
+      o.axis.cycle_ms = ms;
+    } else if (arg == "--heartbeat-ms") {
+      o.heartbeat_ms = static_cast<uint16_t>(ParseInt(arg, value, 0, 65535));
+    } else {
+      UsageError(absl::StrCat("unknown flag '", arg, "'"));
+    }
+  }
+  if (!can) UsageError("--can: missing (udp:GROUP:PORT or socketcan:IFACE)");
+  if (!node) UsageError("--node: missing (CANopen node id 1..127)");
+  if (revolution && !o.axis.endless) UsageError("--revolution: only with --endless");
+  o.can = *can;
+  o.node_id = static_cast<uint8_t>(*node);
+  if (revolution) o.axis.revolution = *revolution;
+  if (auto s = ssim::AxisDevice::Validate(o.axis); !s.ok()) UsageError(std::string(s.message()));
+  const sigset_t signals = BlockSignals();
+  auto server = ssim::AxisServer::Start(o, SteadyClock::Instance());
+  if (!server.ok()) {
+    std::cerr << "drivegw-sim: " << server.status().message() << "\n";
+    return 1;
+  }
+  std::cout << absl::StrFormat("stober node %d on %s (%s axis, A150 %g ms)\n", o.node_id,
+                               (*server)->bus_name(), o.axis.endless ? "endless" : "limited",
+                               o.axis.cycle_ms.value_or(1));
+  std::cout.flush();
+  WaitForSignal(signals, 0, [] {});
+  (*server)->Stop();
+  std::cout << "drivegw-sim: stopped\n";
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
   if (FindFamily(argc, argv) == "linmot-devicenet") return RunLinMotDeviceNet(argc, argv);
   if (FindFamily(argc, argv) == "trinamic") return RunTrinamic(argc, argv);
+  if (FindFamily(argc, argv) == "stober") return RunStober(argc, argv);
   const Flags flags = ParseFlags(argc, argv);
   if (auto s = drivegw::sim::linmot::ValidateOptions(flags.sim); !s.ok()) {
     UsageError(FlagMessage(std::string(s.message())));
