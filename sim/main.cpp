@@ -460,7 +460,6 @@ int RunTrinamic(int argc, char** argv) {
   return 0;
 }
 
-
 constexpr const char* kStoberUsage =
     R"(usage: drivegw-sim stober --can udp:GROUP:PORT|socketcan:IFACE --node N [flags]
 
