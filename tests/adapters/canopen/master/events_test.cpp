@@ -250,6 +250,47 @@ TEST(CanopenMasterBus, BusOffFailsTheRunningTransferAndRecovers) {
   EXPECT_EQ(master.counters().bus_off_events, 1u);
 }
 
+TEST(CanopenMasterBus, HeartbeatSupervisionPausesDuringALinkFault) {
+  auto bus = UniqueBus();
+  auto node = TestNode::Start(bus, 7);
+  ASSERT_NE(node, nullptr);
+  auto faults = std::make_shared<Faults>();
+  auto ch = transport::OpenCanChannel(bus);
+  ASSERT_TRUE(ch.ok());
+  ManualClock clock;
+  MasterOptions o;
+  o.clock = &clock;
+  o.bus_retry_min = 5ms;
+  o.bus_retry_max = 10ms;
+  auto m = CanopenMaster::Open(std::make_unique<FaultyChannel>(*std::move(ch), faults), o);
+  ASSERT_TRUE(m.ok());
+  CanopenMaster& master = **m;
+  RecordingObserver obs;
+  ASSERT_TRUE(master.AddNodeObserver(7, &obs).ok());
+  ASSERT_TRUE(master.SetHeartbeatConsumer(7, 300ms).ok());
+  node->SendHeartbeat(NmtState::kOperational);
+  ASSERT_TRUE(WaitFor([&] { return obs.heartbeats() == 1; }));
+
+  faults->fail_receive = true;
+  master.Wake();
+  ASSERT_TRUE(WaitFor([&] { return obs.HasEvent(NodeEvent::kLinkLost); }));
+  clock.Advance(5s);  // our outage, not the node's: no heartbeat loss
+  faults->fail_receive = false;
+  ASSERT_TRUE(WaitFor([&] { return obs.HasEvent(NodeEvent::kLinkRestored); }));
+  for (int i = 1; i <= 2; ++i) {  // barrier: timers serviced after the restore
+    node->SendEmcy(0x0000, 0);
+    ASSERT_TRUE(WaitFor([&] { return obs.emcys().size() == static_cast<size_t>(i); }));
+  }
+  EXPECT_THAT(obs.events(), ElementsAre(NodeEvent::kLinkLost, NodeEvent::kLinkRestored));
+  // Supervision restarts with the first heartbeat after the fault.
+  node->SendHeartbeat(NmtState::kOperational);
+  ASSERT_TRUE(WaitFor([&] { return obs.heartbeats() == 2; }));
+  clock.Advance(301ms);
+  master.Wake();
+  ASSERT_TRUE(WaitFor([&] { return obs.events().size() == 3; }));
+  EXPECT_EQ(obs.events().back(), NodeEvent::kHeartbeatLost);
+}
+
 TEST(CanopenMasterObservers, RemovedObserverIsNotCalled) {
   ManualBench b;
   ASSERT_NE(b.master, nullptr);
