@@ -354,6 +354,7 @@ void MotionCore::CheckLimitSwitches() {
 }
 
 void MotionCore::StartLimitStop() {
+  DropForeignAcceleration();
   const double dec =
       options_.quick_stop_deceleration > 0 ? options_.quick_stop_deceleration : Get("I11");
   const double jerk = options_.quick_stop_jerk > 0 ? options_.quick_stop_jerk : Get("I16");

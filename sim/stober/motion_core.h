@@ -65,6 +65,7 @@ enum class Cause : int {
   kEvent78 = 12,
   kNotEnabled = 13,
   kErrorStopActive = 14,
+  kZeroPulseNotFound = 15,
 };
 
 // Drive events the model raises (§5.7: event 78 "Position limit cyclic" causes 2 and 3).
@@ -168,6 +169,7 @@ class MotionCore {
     int blocked_cycles = 0;
     double velocity = 0;  // velocity of the current search phase, before override
     double last_machine = 0;
+    double zero_search_start = 0;  // machine position where the zero-pulse search began
   };
   struct Interpolator {  // fine interpolator of the cyclic commands (§8.8)
     double from = 0;
@@ -210,6 +212,7 @@ class MotionCore {
   void Deny(Cause cause, std::string text);
   void Cancel(Cause cause, std::string text);
   void QuickStop();
+  void DropForeignAcceleration();
   void PlanPositioning();
   void PlanVelocity(double velocity, double acceleration, double deceleration, double jerk);
   void PlanMoveSpeed();

@@ -42,6 +42,7 @@ void MotionCore::StartCommand(Command command) {
   event78_warning_ = false;
   brake_timer_.reset();     // a start within I42 restarts without engaging (L373)
   Set("I82", Get("I400"));  // motion ID (L187)
+  DropForeignAcceleration();
 
   if (!power_.operation_enabled()) {
     Deny(Cause::kNotEnabled, "axis not enabled (CiA 402 state is not Operation enabled)");
@@ -247,7 +248,15 @@ void MotionCore::Deny(Cause cause, std::string text) {
 
 void MotionCore::Cancel(Cause cause, std::string text) { Deny(cause, std::move(text)); }
 
+// The acceleration of the cyclic, torque and cyclical-takeover modes is a difference quotient of
+// set-value jumps, not a profile state: a following profile starts from a = 0 (jerk-free
+// continuation is not guaranteed there, L324, L859; decision 1153).
+void MotionCore::DropForeignAcceleration() {
+  if (drive_ != Drive::kProfile && drive_ != Drive::kRest) set_.acceleration = 0;
+}
+
 void MotionCore::QuickStop() {
+  DropForeignAcceleration();
   // G-20: configurable quick-stop deceleration (default I11) and jerk (default I16).
   const double dec =
       options_.quick_stop_deceleration > 0 ? options_.quick_stop_deceleration : Get("I11");

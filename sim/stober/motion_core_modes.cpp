@@ -93,6 +93,7 @@ void MotionCore::StartHome() {
   plc_ = PlcState::kHoming;
   if (method.type == 3) {
     homing_.phase = HomingPhase::kZeroPulse;
+    homing_.zero_search_start = homing_.last_machine;
     HomingVelocity(homing_.direction * Get("I33"));
   } else {
     homing_.phase = HomingPhase::kSearch;
@@ -216,6 +217,7 @@ void MotionCore::StepHoming() {
       if (homing_.was_active && !active) {
         if (homing_.zero_pulse) {
           homing_.phase = HomingPhase::kZeroPulse;
+          homing_.zero_search_start = machine;
         } else {
           ReferenceAt(edge_position());
         }
@@ -233,7 +235,12 @@ void MotionCore::StepHoming() {
       const double pulse = options_.zero_pulse_offset + k * spacing;
       const bool crossed =
           machine > previous_machine ? (pulse > lo && pulse <= hi) : (pulse >= lo && pulse < hi);
-      if (crossed) ReferenceAt(pulse);
+      if (crossed) {
+        ReferenceAt(pulse);
+      } else if (Get("I37") > 0 && std::abs(machine - homing_.zero_search_start) > Get("I37")) {
+        // Index search distance I37 travelled without a zero pulse (L1162; decision 1150).
+        Cancel(Cause::kZeroPulseNotFound, "zero pulse not found within index search distance I37");
+      }
       break;
     }
     case HomingPhase::kStopAfterReference:
