@@ -220,6 +220,7 @@ void MotionCore::StepPower() {
       actual_velocity_ = 0;
     }
     if (Get("F00") == 1) brake_engaged_ = true;
+    brake_release_cycles_ = 0;
   }
   was_enabled_ = enabled;
 }
@@ -249,7 +250,12 @@ void MotionCore::UpdateContinuousInputs() {
 void MotionCore::Integrate() {
   const double step = dt();
   const double previous_velocity = set_.velocity;
-  if (limit_stop_) {
+  if (brake_release_cycles_ > 0) {
+    // The brake is still opening: the set values wait (decision 1157).
+    if (--brake_release_cycles_ == 0) brake_engaged_ = false;
+    set_.velocity = 0;
+    set_.acceleration = 0;
+  } else if (limit_stop_) {
     limit_stop_time_ += step;
     set_ = limit_stop_profile_.At(limit_stop_time_);
     if (!limit_stop_profile_.Active(limit_stop_time_)) {

@@ -101,6 +101,9 @@ struct MotionCoreOptions {
   // Mechanical end stops (torque/force-stop homing, TorqueControl).
   std::optional<double> positive_end_stop;
   std::optional<double> negative_end_stop;
+  // Brake release time (§8.10 [P]): a motion started with the brake engaged waits this long
+  // (0 = the brake opens in the start cycle).
+  double brake_release_ms = 0;
   // Torque mechanics (§8.9): acceleration per % torque, friction and constant load (in %).
   double acceleration_per_torque = 100;  // u/s² per %
   double viscous_friction = 0;           // % per u/s
@@ -213,6 +216,7 @@ class MotionCore {
   void Cancel(Cause cause, std::string text);
   void QuickStop();
   void DropForeignAcceleration();
+  void ReleaseBrake();
   void PlanPositioning();
   void PlanVelocity(double velocity, double acceleration, double deceleration, double jerk);
   void PlanMoveSpeed();
@@ -283,6 +287,7 @@ class MotionCore {
   bool brake_at_end_ = false;
   std::optional<int> brake_timer_;  // cycles until the brake engages
   bool brake_engaged_ = true;
+  int brake_release_cycles_ = 0;  // motion waits while the brake opens
   bool event78_warning_ = false;
 
   // Latched set values of the running command.

@@ -255,6 +255,17 @@ void MotionCore::DropForeignAcceleration() {
   if (drive_ != Drive::kProfile && drive_ != Drive::kRest) set_.acceleration = 0;
 }
 
+// §2.12: released at every start from standstill (L255); with a release time the motion waits
+// for it (§8.10 [P], decision 1157).
+void MotionCore::ReleaseBrake() {
+  if (brake_engaged_ && Get("F00") == 1 && options_.brake_release_ms > 0) {
+    brake_release_cycles_ =
+        std::max(1, static_cast<int>(std::lround(options_.brake_release_ms / Get("A150"))));
+    return;
+  }
+  brake_engaged_ = false;
+}
+
 void MotionCore::QuickStop() {
   DropForeignAcceleration();
   // G-20: configurable quick-stop deceleration (default I11) and jerk (default I16).
@@ -300,7 +311,7 @@ void MotionCore::StartPositioning(Command command) {
   // Only 1-3 produce a valid set position (L745, G-16).
   last_set_position_ = target_;
   window_reached_ = window_left_ = false;
-  brake_engaged_ = false;  // released at the start (L255)
+  ReleaseBrake();
   plc_ = PlcState::kDiscreteMotion;
   PlanPositioning();
 }
@@ -334,7 +345,7 @@ void MotionCore::StartMoveVelocity() {
   cmd_deceleration_ = Get("I406");
   cmd_jerk_ = Get("I407");
   last_set_position_.reset();  // G-16
-  brake_engaged_ = false;
+  ReleaseBrake();
   plc_ = PlcState::kContinuousMotion;
   velocity_limited_ = std::abs(cmd_velocity_) > Get("I10");
   override_limited_ = !velocity_limited_ && std::abs(cmd_velocity_) * OverrideFactor() > Get("I10");
@@ -380,7 +391,7 @@ void MotionCore::StartStopOrHalt(Command command) {
 
 void MotionCore::StartMoveSpeed() {
   last_set_position_.reset();
-  brake_engaged_ = false;
+  ReleaseBrake();
   plc_ = PlcState::kContinuousMotion;
   cyclic_only_at_start_ = Get("I119") == 1;
   movespeed_target_ = Get("I426");

@@ -89,7 +89,7 @@ void MotionCore::StartHome() {
   homing_.zero_pulse = method.zero_pulse && method.type != 4;
   homing_.last_machine = MachinePosition();
   Set("I86", 0);  // a new reference search drops the old reference
-  brake_engaged_ = false;
+  ReleaseBrake();
   plc_ = PlcState::kHoming;
   if (method.type == 3) {
     homing_.phase = HomingPhase::kZeroPulse;
@@ -280,7 +280,7 @@ void MotionCore::StepHoming() {
 
 void MotionCore::StartCyclic(Command command) {
   last_set_position_.reset();
-  brake_engaged_ = false;
+  ReleaseBrake();
   plc_ = PlcState::kCyclicMotion;
   cyclic_only_at_start_ = Get("I119") == 1;
   drive_ = command == Command::kCyclicSpeed ? Drive::kCyclicSpeed : Drive::kCyclicPosition;
@@ -405,7 +405,7 @@ void MotionCore::StepCyclicPosition() {
 
 void MotionCore::StartTorque() {
   last_set_position_.reset();
-  brake_engaged_ = false;
+  ReleaseBrake();
   plc_ = PlcState::kContinuousMotion;
   drive_ = Drive::kTorque;
 }

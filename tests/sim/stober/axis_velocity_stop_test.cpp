@@ -313,6 +313,24 @@ TEST(StoberAxis, CT51_BrakeReleasedAtStartFromStandstill) {
   ASSERT_GT(axis.RunUntilDone(), 0);
 }
 
+TEST(StoberAxis, CT51b_MotionWaitsForTheBrakeReleaseTime) {
+  MotionCoreOptions options;
+  options.brake_release_ms = 20;
+  TestAxis axis(Fixture::kLin, options);
+  axis.MoveAbsolute(500);
+  for (int i = 1; i < 20; ++i) {
+    EXPECT_TRUE(axis.core().brake_engaged()) << i;
+    EXPECT_EQ(axis.R("I80"), 0) << i;
+    axis.Advance();
+  }
+  EXPECT_FALSE(axis.core().brake_engaged());
+  EXPECT_EQ(axis.R("I80"), 0);
+  axis.Advance();
+  EXPECT_GT(axis.R("I80"), 0);
+  ASSERT_GT(axis.RunUntilDone(), 0);
+  EXPECT_EQ(axis.R("I80"), 500);
+}
+
 TEST(StoberAxis, LimitSwitchDuringMoveCancelsWithQuickStop) {
   MotionCoreOptions options;
   options.positive_limit_switch = 300;
