@@ -193,7 +193,7 @@ TEST_F(StoberCanTest, SdoReadsCia402ObjectsAndStoberParameters) {
   EXPECT_DOUBLE_EQ(*ReadParam("I50"), 10000);
   ASSERT_TRUE(WriteParam("I403", -12.345).ok());
   EXPECT_DOUBLE_EQ(*ReadParam("I403"), -12.345);
-  ASSERT_TRUE(WriteParam("A567", 77.5).ok());  // 607Ah feeds I403 (decision 1147)
+  ASSERT_TRUE(WriteParam("A567", 77.5).ok());  // 607Ah feeds I403 (CiA 402 source write-through)
   EXPECT_DOUBLE_EQ(*ReadParam("I403"), 77.5);
 }
 
