@@ -85,7 +85,7 @@ void AxisDevice::Restart() {
   auto core = MakeCore(options_);
   core_ = core.ok() ? *std::move(core) : std::make_unique<MotionCore>(options_.core);
   carry_ = Duration::zero();
-  error_ = positive_limit_ = negative_limit_ = fault_ = emcy_active_ = false;
+  error_ = positive_limit_ = negative_limit_ = emcy_active_ = false;
   last_flags_ = 0;
   last_status_word_ = 0;
   last_plc_ = 0;
@@ -225,7 +225,6 @@ void AxisDevice::AfterCycle(SlaveNode& node) {
   error_ = error;
   positive_limit_ = positive;
   negative_limit_ = negative;
-  fault_ = fault;
   if (emcy_active_ && !error && !positive && !negative && !fault) {
     node.ClearErrors();
     emcy_active_ = false;
@@ -241,7 +240,6 @@ void AxisDevice::InjectFollowingError(SlaveNode& node) {
   core_->InjectFault();
   node.RaiseEmcy(kEmcyFollowingError, kErrorRegisterProfile, {});
   emcy_active_ = true;
-  fault_ = true;
 }
 
 void AxisDevice::ForceLimitSwitch(bool positive, std::optional<bool> active) {

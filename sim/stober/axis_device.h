@@ -74,7 +74,6 @@ class AxisDevice : public canopen::DeviceModel {
   bool error_ = false;
   bool positive_limit_ = false;
   bool negative_limit_ = false;
-  bool fault_ = false;
   bool emcy_active_ = false;
   uint32_t last_flags_ = 0;
   uint16_t last_status_word_ = 0;
