@@ -151,6 +151,8 @@ struct MasterCounters {
 using ObserverId = uint64_t;
 using SyncListenerId = uint64_t;
 
+// Every public method may be called from any thread (decision 1111). Deadlines are time points
+// of options.clock.
 class CanopenMaster {
  public:
   using Reopen = std::function<absl::StatusOr<std::unique_ptr<transport::CanChannel>>()>;
