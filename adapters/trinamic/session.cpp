@@ -606,27 +606,37 @@ absl::Status ControllerSession::ChangeBaud(const Command& word, Deadline deadlin
   const std::optional<int> old = link_->baud();
   // Our own port must be able to follow before the PACK is told to switch (CT-08).
   if (old && !target.ok()) return target.status();
-  auto sent = TransactLocked(word, deadline);
-  if (!sent.ok()) return sent.status();
-  if (!old || *old == *target) return absl::OkStatus();
-  // G-40 [P]: the new rate is effective after the complete word; switch, settle, verify. The
-  // word must have reached the PACK at the old rate first: TCSADRAIN covers a UART's queue, and
-  // twice the word's line time (10 bits per byte, G-03) covers a reader on a pty (§2.7).
-  std::this_thread::sleep_for(microseconds(2 * kCommandSize * 10 * 1'000'000 / *old));
-  if (auto s = SetBaudLocked(*target); !s.ok()) return s;
-  std::this_thread::sleep_for(options_.baud_settle);
+  if (!old) return TransactLocked(word, deadline).status();  // CAN: the PACK's RS-232 only
   Command probe;
   probe.address = options_.address;
   probe.opcode = Opcode::kUnitInformation;
   probe.values[0] = options_.response_address;
-  auto verified =
-      TransactLocked(probe, SessionClock::now() + std::max(options_.probe_timeout,
-                                                           std::chrono::milliseconds(50)));
-  if (verified.ok()) return absl::OkStatus();
-  (void)SetBaudLocked(*old);
-  return absl::UnavailableError(absl::StrCat(
-      Where(word), ": no unit_information ($43) answer at ", *target, " baud after the switch (",
-      std::string(verified.status().message()), "); returned to ", *old, " baud (G-40)"));
+  const auto probe_deadline = [&] {
+    return SessionClock::now() + std::max(options_.probe_timeout, std::chrono::milliseconds(50));
+  };
+  // The PACK acknowledges nothing (G-06): a `$40` lost on the line leaves it at the old rate.
+  // Then the `$43` at the old rate answers and the word is sent once more.
+  absl::Status last = absl::OkStatus();
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    auto sent = TransactLocked(word, deadline);
+    if (!sent.ok()) return sent.status();
+    if (*old == *target) return absl::OkStatus();
+    // G-40 [P]: the new rate is effective after the complete word; switch, settle, verify. The
+    // word must have reached the PACK at the old rate first: TCSADRAIN covers a UART's queue,
+    // twice the word's line time (10 bits per byte, G-03) plus the command gap a pty reader.
+    std::this_thread::sleep_for(microseconds(2 * kCommandSize * 10 * 1'000'000 / *old) +
+                                options_.command_gap);
+    if (auto s = SetBaudLocked(*target); !s.ok()) return s;
+    std::this_thread::sleep_for(options_.baud_settle);
+    auto verified = TransactLocked(probe, probe_deadline());
+    if (verified.ok()) return absl::OkStatus();
+    (void)SetBaudLocked(*old);
+    last = absl::UnavailableError(absl::StrCat(
+        Where(word), ": no unit_information ($43) answer at ", *target, " baud after the switch (",
+        std::string(verified.status().message()), "); returned to ", *old, " baud (G-40)"));
+    if (!TransactLocked(probe, probe_deadline()).ok()) break;  // not at the old rate either
+  }
+  return last;
 }
 
 }  // namespace drivegw::trinamic

@@ -34,7 +34,7 @@ TEST(TrinamicAdapter, CT01_RequestIsExactlyNineBytesZeroPadded) {
   ASSERT_TRUE(pack.ok());
   Drive* d = pack.Enabled(pack.Config("m0", 0));
   ASSERT_NE(d, nullptr);
-  pack.server->ClearWords();
+  pack.ClearWords();
   const auto before = pack.server->counters();
   auto r = d->Move(MoveAbsolute{10000, kV511, kA128, 0});
   ASSERT_TRUE(r.ok()) << r.status();
@@ -55,7 +55,7 @@ TEST(TrinamicAdapter, CT02_LittleEndianSignedParameters) {
   ASSERT_TRUE(pack.ok());
   Drive* d = pack.Enabled(pack.Config("m5", 5));
   ASSERT_NE(d, nullptr);
-  pack.server->ClearWords();
+  pack.ClearWords();
   auto r = d->Move(MoveAbsolute{-6400, kV511, kA128, 0});
   ASSERT_TRUE(r.ok()) << r.status();
   EXPECT_EQ(WaitFinal(d, r->id).state, CommandState::kDone);
@@ -84,7 +84,7 @@ TEST(TrinamicAdapter, CT08_BaudChange_SwitchVerifyAndBackAfterReset) {
   Drive* d = pack.Enabled(pack.Config("m0", 0));
   ASSERT_NE(d, nullptr);
 
-  pack.server->ClearWords();
+  pack.ClearWords();
   const absl::Status bad = d->WriteParameter(Param("$40.divisor"), 100);
   EXPECT_EQ(bad.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(bad.message(), HasSubstr("$40.divisor: 100"));
@@ -143,7 +143,7 @@ TEST(TrinamicAdapter, CT10_NoInterlacing_ConcurrentQueriesStrictlyAlternate) {
   std::vector<Drive*> drives;
   for (uint8_t m = 0; m < 3; ++m) {
     DriveConfig c = pack.Config("m" + std::to_string(m), m);
-    c.trinamic->reply_timeout = 400ms;
+    c.trinamic->reply_timeout = 1000ms;
     c.trinamic->poll_period = 20ms;
     drives.push_back(pack.drives.Activate(c));
     ASSERT_NE(drives.back(), nullptr);
@@ -151,7 +151,7 @@ TEST(TrinamicAdapter, CT10_NoInterlacing_ConcurrentQueriesStrictlyAlternate) {
   ASSERT_TRUE(drives[0]->WriteParameter(Param("$40.switchover"), 25).ok());
   ASSERT_TRUE(Eventually(
       [&] { return pack.Sim<int>([](Controller& c) { return c.globals().switchover; }) == 25; }));
-  pack.server->ClearWords();
+  pack.ClearWords();
   std::vector<absl::StatusOr<NativeReply>> replies(3, absl::UnknownError("not run"));
   std::vector<std::thread> threads;
   for (uint8_t m = 0; m < 3; ++m) {
@@ -188,7 +188,7 @@ TEST(TrinamicAdapter, CT11_StrayZeroAfterReset_NextUnitInformationDecoded) {
   ASSERT_NE(d, nullptr);
   auto* t = Drives::Trinamic(d);
   const uint64_t zeros = t->session_counters()->stray_zeros;
-  pack.server->ClearWords();
+  pack.ClearWords();
   ASSERT_TRUE(d->SendNative(TrinamicRequest{0xCC, {}}).ok());
   const DriveStatus s = WaitStatus(
       d,
@@ -222,7 +222,7 @@ TEST(TrinamicAdapter, CT17_DelayedActivityQuery_RefusedMaskZeroAnswered) {
   ASSERT_TRUE(pack.ok());
   Drive* d = pack.Enabled(pack.Config("m0", 0));
   ASSERT_NE(d, nullptr);
-  pack.server->ClearWords();
+  pack.ClearWords();
   auto refused = d->SendNative(TrinamicRequest{0x28, {0, 0x01, 0, 0, 0, 0, 0}});
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(refused.status().message(), HasSubstr("G-41"));
@@ -231,7 +231,7 @@ TEST(TrinamicAdapter, CT17_DelayedActivityQuery_RefusedMaskZeroAnswered) {
 
   auto r = d->Move(MoveAbsolute{15000, 2000, kA128, 0});
   ASSERT_TRUE(r.ok()) << r.status();
-  pack.server->ClearWords();
+  pack.ClearWords();
   auto now = d->SendNative(TrinamicRequest{0x28, {0, 0, 0, 0, 0, 0, 0}});
   ASSERT_TRUE(now.ok()) << now.status();
   ASSERT_EQ(now->data.size(), 8u);
@@ -351,7 +351,7 @@ TEST(TrinamicAdapter, CT55_OutOfRangeRefusedBeforeTransmission) {
   // Motor 0 at div 0 and vmax 300: 61 kHz at clkdiv 5, 366 kHz at clkdiv 0 (L497).
   ASSERT_TRUE(x->WriteParameter(Param("$14.vmax"), 300).ok());
   ASSERT_TRUE(x->WriteParameter(Param("$13.div"), 0).ok());
-  pack.server->ClearWords();
+  pack.ClearWords();
   struct Case {
     const char* name;
     int64_t value;
@@ -397,7 +397,7 @@ TEST(TrinamicAdapter, CT56_StoppedOnlyParametersRefusedWhileActive) {
   ASSERT_TRUE(r.ok()) << r.status();
   ASSERT_EQ(WaitStatus(d, [](const DriveStatus& s) { return s.state == DriveState::kMoving; }).state,
             DriveState::kMoving);
-  pack.server->ClearWords();
+  pack.ClearWords();
   for (const auto& [name, value] : std::vector<std::pair<const char*, int64_t>>{
            {"$12.clkdiv", 4}, {"$13.vstart", 6}, {"$13.div", 1}, {"$16.vrefmax", 50}}) {
     const absl::Status s = d->WriteParameter(Param(name), value);
@@ -423,7 +423,7 @@ TEST(TrinamicAdapter, CT57_ParametersReappliedBeforeAnyMotionWord) {
   c.trinamic->parameters = {{"$14.vmax", 300}};
   Drive* d = pack.Enabled(c);
   ASSERT_NE(d, nullptr);
-  pack.server->ClearWords();
+  pack.ClearWords();
   pack.server->WithController([](Controller& c) { c.Reset(); });
   ASSERT_EQ(WaitStatus(
                 d,

@@ -172,6 +172,16 @@ class TrinamicDriveTest : public ::testing::Test {
     }
     return v;
   }
+  // Returns once the simulator executed every word written so far: a reply it sends later
+  // answers a query the session sent after them (no interleaving, L357). Needs a polling drive.
+  void Settle() {
+    const uint64_t n = server_->counters().replies;
+    const auto deadline = std::chrono::steady_clock::now() + 2s;
+    while (server_->counters().replies <= n && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::yield();
+    }
+    EXPECT_GT(server_->counters().replies, n);
+  }
   int32_t SimPosition(int motor) {
     return Sim<int32_t>([&](Controller& c) { return c.state(motor).position; });
   }
@@ -389,6 +399,74 @@ TEST_F(TrinamicDriveTest, Parameters_WriteReadValidate_NoWireTrafficOnRefusal) {
   // Only polls went out meanwhile: every word since `before` is a query.
   EXPECT_GE(server_->counters().words, before);
   EXPECT_EQ(*d->ReadParameter(vmax), 300);
+}
+
+// Decisions 1072/1073/1098: every configuration word the Pack sends reaches every axis's shadow
+// (controller-wide values, the `$10` pair), and `$12.clkdiv` is checked against every axis.
+TEST_F(TrinamicDriveTest, SharedShadows_ControllerAndPairWordsReachEveryAxis) {
+  StartSim();
+  Drive* x = Activate(Config("x", 0));
+  DriveConfig cy = Config("y", 1);
+  cy.trinamic->parameters = {{"$13.div", 0}};  // vmax 511 at div 0: 125 kHz at clkdiv 4
+  Drive* y = Activate(cy);
+  Drive* z = Activate(Config("z", 2));
+  ASSERT_NE(x, nullptr);
+  ASSERT_NE(y, nullptr);
+  ASSERT_NE(z, nullptr);
+  const ParameterRef clkdiv{ParameterId(Opcode::kVelocitySetting, 0), false};
+  const ParameterRef peak{ParameterId(Opcode::kPeakCurrent, 1), false};
+  const ParameterRef active_mask{ParameterId(Opcode::kReadyOutput, 0), false};
+  // API write on x: the controller value in every shadow.
+  ASSERT_TRUE(x->WriteParameter(clkdiv, 4).ok());
+  EXPECT_EQ(*y->ReadParameter(clkdiv), 4);
+  EXPECT_EQ(*z->ReadParameter(clkdiv), 4);
+  // `$10` of x (motnr 0) is the pair 0+1: y follows, z (pair 2+3) does not (L505-512).
+  ASSERT_TRUE(x->WriteParameter(peak, 200).ok());
+  EXPECT_EQ(*y->ReadParameter(peak), 200);
+  EXPECT_EQ(*z->ReadParameter(peak), 128);
+  // Native pass-through on z: `$33` masks reach x too.
+  ASSERT_TRUE(z->SendNative(TrinamicRequest{0x33, {0x07, 0x03, 0, 0, 0, 0, 0}}).ok());
+  EXPECT_EQ(*x->ReadParameter(active_mask), 7);
+  // clkdiv 0: fine for x and z (div 2: 156 kHz), not for y (div 0: 624 kHz, L497); refused from
+  // x naming y, nothing sent.
+  Settle();
+  server_->ClearWords();
+  const absl::Status refused = x->WriteParameter(clkdiv, 0);
+  EXPECT_EQ(refused.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(refused.message(), HasSubstr("drive 'y' (motor 1) would break: $12.clkdiv: 0"));
+  EXPECT_THAT(refused.message(), HasSubstr("above 200000 Hz (L497)"));
+  EXPECT_TRUE(NonQueries(server_->words()).empty());
+  EXPECT_EQ(*z->ReadParameter(clkdiv), 4);
+  // After a reset the controller words go out once, from the shadows that agree.
+  server_->WithController([](Controller& c) { c.Reset(); });
+  EXPECT_EQ(SimEventually<int>([](Controller& c) { return c.globals().clkdiv; }, 4), 4);
+  EXPECT_EQ(SimEventually<int>([](Controller& c) { return c.registers(1).peak_current; }, 200),
+            200);
+  EXPECT_EQ(SimEventually<int>([](Controller& c) { return c.globals().ready_active_mask; }, 7), 7);
+}
+
+// G-40: when the PACK does not answer at the new rate the gateway returns to the old one and
+// reports; non-standard divisors are refused before anything is sent (§2.1 table).
+TEST_F(TrinamicDriveTest, BaudChange_NoAnswerAtNewRate_ReturnsAndReports) {
+  StartSim();  // no peer-speed check: the `$40` is executed whatever the timing
+  Drive* d = Activate(Config());
+  ASSERT_NE(d, nullptr);
+  Settle();
+  server_->ClearWords();
+  auto odd = d->SendNative(TrinamicRequest{0x40, {100, 0, 3, 0, 0, 0, 0}});
+  EXPECT_EQ(odd.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(odd.status().message(), HasSubstr("$40.divisor: 100"));
+  EXPECT_TRUE(NonQueries(server_->words()).empty());
+
+  server_->SetSilent(true);  // executes the `$40`, answers nothing
+  const ParameterRef divisor{ParameterId(Opcode::kSetBaudRate, 0), false};
+  const absl::Status s = d->WriteParameter(divisor, 130);
+  server_->SetSilent(false);
+  EXPECT_EQ(s.code(), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(s.message(), HasSubstr("no unit_information ($43) answer at 9600 baud"));
+  EXPECT_THAT(s.message(), HasSubstr("returned to 19200 baud (G-40)"));
+  EXPECT_EQ(*d->ReadParameter(divisor), 65);  // not absorbed: the switch was not confirmed
+  EXPECT_EQ(Sim<int>([](Controller& c) { return c.globals().baud_divisor; }), 130);
 }
 
 TEST_F(TrinamicDriveTest, CT56_StoppedOnlyParameters_RefusedWhileActive) {
