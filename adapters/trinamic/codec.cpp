@@ -523,9 +523,9 @@ absl::StatusOr<int> BaudOfDivisor(int64_t divisor) {
     if (DivisorOfBaud(baud) == divisor) return baud;
     absl::StrAppend(&accepted, accepted.empty() ? "" : ", ", DivisorOfBaud(baud), " (", baud, ")");
   }
-  return absl::InvalidArgumentError(absl::StrCat(
-      "$40.divisor: ", divisor, " is not 1 250 000 / a standard baud rate (§2.1, L832); use one of ",
-      accepted));
+  return absl::InvalidArgumentError(
+      absl::StrCat("$40.divisor: ", divisor,
+                   " is not 1 250 000 / a standard baud rate (§2.1, L832); use one of ", accepted));
 }
 
 }  // namespace drivegw::trinamic

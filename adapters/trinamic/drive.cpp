@@ -177,9 +177,8 @@ absl::Status TrinamicDrive::CheckShared(uint32_t id, int64_t value, int baud) co
   std::lock_guard lock(mu_);
   absl::Status s = shadow_.Validate(id, value, baud);
   if (s.ok()) return s;
-  return absl::InvalidArgumentError(absl::StrCat("drive '", name_, "' (motor ",
-                                                 std::to_string(axis_), ") would break: ",
-                                                 s.message()));
+  return absl::InvalidArgumentError(absl::StrCat(
+      "drive '", name_, "' (motor ", std::to_string(axis_), ") would break: ", s.message()));
 }
 
 int TrinamicDrive::LineBaud() const {
@@ -1220,7 +1219,8 @@ absl::StatusOr<NativeReply> TrinamicDrive::SendNative(const NativeRequest& req) 
     // Decision 1099 (G-41, CT-17): the session never leaves a reply outstanding; a delayed `$28`
     // would block the line until the masked motors stop (L740, L357).
     return absl::InvalidArgumentError(absl::StrCat(
-        Prefix("SendNative"), "query_activities ($28) with delay mask ", std::to_string(tr->params[1]),
+        Prefix("SendNative"), "query_activities ($28) with delay mask ",
+        std::to_string(tr->params[1]),
         " is refused (G-41: the gateway never has a delayed reply outstanding); send mask 0 and "
         "poll until the motors are inactive"));
   }

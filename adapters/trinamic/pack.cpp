@@ -87,9 +87,9 @@ absl::Status NoAddressClash(Registry& r, const TrinamicConfig& want) {
           " is the address of the controller ", key, " on the same line (CT-50, §3.1)"));
     }
     if (want.address == have.response_address) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "trinamic.address: ", std::to_string(want.address), " is the response address of ",
-          key, " on the same line (CT-50, §3.1)"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("trinamic.address: ", std::to_string(want.address),
+                       " is the response address of ", key, " on the same line (CT-50, §3.1)"));
     }
   }
   return absl::OkStatus();
@@ -308,8 +308,7 @@ absl::StatusOr<std::optional<Reply>> Pack::Send(const Command& command, Deadline
   return TransactWord(command, deadline);
 }
 
-absl::StatusOr<std::optional<Reply>> Pack::TransactWord(const Command& command,
-                                                        Deadline deadline) {
+absl::StatusOr<std::optional<Reply>> Pack::TransactWord(const Command& command, Deadline deadline) {
   absl::StatusOr<std::optional<Reply>> r = std::optional<Reply>();
   if (command.opcode == Opcode::kSetBaudRate) {
     // G-40: the PACK switches after the word; the session follows and verifies (CT-08).

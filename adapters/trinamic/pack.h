@@ -173,7 +173,7 @@ class Pack final : private SessionObserver {
   std::string link_reason_;
   SessionClock::time_point next_reset_probe_{};
   SessionClock::time_point last_motion_probe_{};  // `$43` before the newest motion command
-  bool jumpers_pending_ = false;                   // CAN: `$30` due after a connect
+  bool jumpers_pending_ = false;                  // CAN: `$30` due after a connect
   std::optional<int> can_bit_rate_;
   PackCounters counters_;
   std::thread thread_;

@@ -331,8 +331,7 @@ ControllerSession::ControllerSession(std::unique_ptr<SessionLink> link,
                                      const SessionOptions& options)
     : options_(options),
       link_(std::move(link)),
-      name_(
-          absl::StrCat("trinamic ", link_->Name(), " address ", std::to_string(options.address))),
+      name_(absl::StrCat("trinamic ", link_->Name(), " address ", std::to_string(options.address))),
       baud_(link_->baud()) {}
 
 int ControllerSession::AddObserver(SessionObserver* observer) {

@@ -125,11 +125,12 @@ TEST(TrinamicAdapter, CT08_BaudChange_SwitchVerifyAndBackAfterReset) {
   EXPECT_EQ(words[0], kQuery43);
   const auto again = IndexOf(words, Bytes{0x01, 0x40, 0x82, 0x00, 0x03, 0x00, 0x00, 0x00, 0x00});
   ASSERT_TRUE(again.has_value()) << ::testing::PrintToString(words);
-  EXPECT_TRUE(IndexOf(words, Bytes{0x01, 0x14, 0x00, 0x80, 0x00, 0xFF, 0x01, 0x00, 0x00}).value_or(
-                  words.size()) < *again)
+  EXPECT_TRUE(IndexOf(words, Bytes{0x01, 0x14, 0x00, 0x80, 0x00, 0xFF, 0x01, 0x00, 0x00})
+                  .value_or(words.size()) < *again)
       << "the axis words are re-applied at 19200 before `$40`";
-  EXPECT_TRUE(Eventually(
-      [&] { return pack.Sim<int>([](Controller& c) { return c.globals().baud_divisor; }) == 130; }));
+  EXPECT_TRUE(Eventually([&] {
+    return pack.Sim<int>([](Controller& c) { return c.globals().baud_divisor; }) == 130;
+  }));
 }
 
 // CT-10 "No interlacing" — L357: with every reply delayed by 50 ms (switchover 25 × 2 ms, L833)
@@ -237,8 +238,8 @@ TEST(TrinamicAdapter, CT17_DelayedActivityQuery_RefusedMaskZeroAnswered) {
   ASSERT_EQ(now->data.size(), 8u);
   EXPECT_EQ(now->data[0], 0x28);
   EXPECT_EQ(now->data[1], 5) << "motor 0 in its ramp";
-  EXPECT_TRUE(IndexOf(pack.server->words(),
-                      Bytes{0x01, 0x28, 0xF0, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}));
+  EXPECT_TRUE(
+      IndexOf(pack.server->words(), Bytes{0x01, 0x28, 0xF0, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}));
   ASSERT_TRUE(d->Move(StopMotion{0}).ok());
 }
 
@@ -249,8 +250,8 @@ TEST(TrinamicAdapter, CT20_JumperBits_CanBitRateReported) {
     bool jp1, jp2;
     int rate;
   };
-  for (const Case& c : {Case{true, true, 1'000'000}, Case{true, false, 125'000},
-                        Case{false, false, 250'000}}) {
+  for (const Case& c :
+       {Case{true, true, 1'000'000}, Case{true, false, 125'000}, Case{false, false, 250'000}}) {
     const CanBusConfig bus = UdpBus(RandomPort());
     CanSniffer sniffer(bus);
     auto sim = StartCanPack(bus, [&](sim::trinamic::CanServerOptions& o) {
@@ -282,8 +283,10 @@ TEST(TrinamicAdapter, CT20_JumperBits_CanBitRateReported) {
 TEST(TrinamicAdapter, CT50_CanIdentifiersFollowTheAddress) {
   const CanBusConfig bus = UdpBus(RandomPort());
   CanSniffer sniffer(bus);
-  auto a = StartCanPack(bus, [](sim::trinamic::CanServerOptions& o) { o.controller.address = 0x10; });
-  auto b = StartCanPack(bus, [](sim::trinamic::CanServerOptions& o) { o.controller.address = 0xFF; });
+  auto a =
+      StartCanPack(bus, [](sim::trinamic::CanServerOptions& o) { o.controller.address = 0x10; });
+  auto b =
+      StartCanPack(bus, [](sim::trinamic::CanServerOptions& o) { o.controller.address = 0xFF; });
   ASSERT_NE(a, nullptr);
   ASSERT_NE(b, nullptr);
   Drives drives;
@@ -395,8 +398,9 @@ TEST(TrinamicAdapter, CT56_StoppedOnlyParametersRefusedWhileActive) {
   ASSERT_NE(d, nullptr);
   auto r = d->Move(MoveVelocity{3000, kA128, 0});
   ASSERT_TRUE(r.ok()) << r.status();
-  ASSERT_EQ(WaitStatus(d, [](const DriveStatus& s) { return s.state == DriveState::kMoving; }).state,
-            DriveState::kMoving);
+  ASSERT_EQ(
+      WaitStatus(d, [](const DriveStatus& s) { return s.state == DriveState::kMoving; }).state,
+      DriveState::kMoving);
   pack.ClearWords();
   for (const auto& [name, value] : std::vector<std::pair<const char*, int64_t>>{
            {"$12.clkdiv", 4}, {"$13.vstart", 6}, {"$13.div", 1}, {"$16.vrefmax", 50}}) {
@@ -425,12 +429,11 @@ TEST(TrinamicAdapter, CT57_ParametersReappliedBeforeAnyMotionWord) {
   ASSERT_NE(d, nullptr);
   pack.ClearWords();
   pack.server->WithController([](Controller& c) { c.Reset(); });
-  ASSERT_EQ(WaitStatus(
-                d,
-                [](const DriveStatus& s) {
-                  return !s.warnings.empty() &&
-                         s.warnings[0].find("controller reset") != std::string::npos;
-                })
+  ASSERT_EQ(WaitStatus(d,
+                       [](const DriveStatus& s) {
+                         return !s.warnings.empty() &&
+                                s.warnings[0].find("controller reset") != std::string::npos;
+                       })
                 .state,
             DriveState::kDisabled);
   auto e = d->Enable();

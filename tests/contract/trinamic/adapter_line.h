@@ -186,9 +186,8 @@ class PtyPack {
     auto r = d->Enable();
     EXPECT_TRUE(r.ok()) << r.status();
     const uint8_t m = c.trinamic->axis;
-    EXPECT_TRUE(Eventually([&] { return Sim<int>([&](auto& p) {
-                                          return p.registers(m).current_index[1];
-                                        }) == 2; }));
+    EXPECT_TRUE(Eventually(
+        [&] { return Sim<int>([&](auto& p) { return p.registers(m).current_index[1]; }) == 2; }));
     return d;
   }
   // Returns once the simulator executed every word the gateway wrote so far: a reply sent later
