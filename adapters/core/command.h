@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <string>
 #include <variant>
@@ -72,8 +73,30 @@ struct TrinamicRequest {
 struct TrinamicTunnelRequest {
   std::vector<uint8_t> data;
 };
+// STOBER motion-core command (stober-motion.md §1.1, §3): command number I401 (0..11) with its set
+// values in physical units, started by a rising edge of Execute I402. Unused values are ignored by
+// the command (the reference's per-command tables say which it latches).
+struct StoberMcRequest {
+  uint8_t command = 0;          // I401: 0 DoNothing ... 11 Halt
+  double position_mm = 0;       // I403 (MoveAbsolute target, MoveRelative/Additive distance)
+  double velocity_mm_s = 0;     // I404
+  double acceleration_mm_s2 = 0;  // I405
+  double deceleration_mm_s2 = 0;  // I406
+  double jerk_mm_s3 = 0;        // I407
+  int direction = 0;            // I411 (endless axes: 0..3, §3.2)
+  double torque_percent = 0;    // A558 / I428 (TorqueControl)
+  uint32_t motion_id = 0;       // I400
+};
+// Raw CANopen SDO access to the drive's object dictionary (CiA 301): upload (read) or download.
+struct CanOpenSdoRequest {
+  uint16_t index = 0;
+  uint8_t sub_index = 0;
+  bool write = false;
+  std::vector<uint8_t> data;  // download payload (1..64 KiB, decision 1103); empty for upload
+};
 using NativeRequest = std::variant<LinMotMcRequest, LinMotRtcRequest, LinMotDnRequest,
-                                   TrinamicRequest, TrinamicTunnelRequest>;
+                                   TrinamicRequest, TrinamicTunnelRequest, StoberMcRequest,
+                                   CanOpenSdoRequest>;
 
 struct NativeReply {
   uint64_t command_id = 0;  // command handle for motion commands, 0 otherwise
@@ -82,8 +105,23 @@ struct NativeReply {
   uint16_t word3 = 0;
   uint16_t word4 = 0;
   // Raw reply body where the family has one (Trinamic: CMD P0..P6, 8 bytes; empty when the
-  // instruction has no reply, §2.4).
+  // instruction has no reply, §2.4; CANopen SDO upload: the object's bytes).
   std::vector<uint8_t> data;
+};
+
+// Cyclic set-point streaming (STOBER MC_CyclicPosition / MC_CyclicSpeed, stober-motion.md §3.8,
+// §3.11): the client supplies set points, the family forwards one per bus cycle (CANopen SYNC).
+enum class CyclicMode { kPosition, kVelocity };
+struct CyclicSetpoint {
+  double value = 0;          // mm (kPosition) or mm/s (kVelocity)
+  double velocity_mm_s = 0;  // kPosition: optional velocity feed-forward (I426), 0 = none
+};
+struct CyclicStats {
+  uint64_t received = 0;  // set points pushed by the client
+  uint64_t sent = 0;      // cycles that carried a fresh set point
+  uint64_t late = 0;      // set points that arrived after their cycle had gone (dropped)
+  uint64_t missing = 0;   // cycles without a fresh set point (the drive extrapolated, I423)
+  std::chrono::microseconds cycle{0};
 };
 
 // Linear interpolated move of several axes of one controller (Trinamic `$26` targets + `$50`,

@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -99,6 +100,26 @@ class Drive {
   virtual absl::StatusOr<CommandInfo> Home() = 0;
   virtual absl::StatusOr<CommandInfo> Move(const MotionCommand& cmd) = 0;
   virtual absl::StatusOr<CommandInfo> AcknowledgeFault() = 0;
+
+  // A running cyclic set-point stream: Push queues the next set point (non-blocking; the family
+  // forwards one per bus cycle), Close ends the cyclic command (the axis stops with its limits) and
+  // returns the final handle. Destroying an open stream closes it.
+  class CyclicStream {
+   public:
+    virtual ~CyclicStream() = default;
+    virtual const CommandInfo& command() const = 0;
+    virtual absl::Status Push(const CyclicSetpoint& setpoint) = 0;
+    virtual CyclicStats stats() const = 0;
+    virtual absl::StatusOr<CommandInfo> Close() = 0;
+  };
+  // Starts MC_CyclicPosition / MC_CyclicSpeed (or the family's equivalent). Families without a
+  // cyclic set-point channel: Unimplemented.
+  virtual absl::StatusOr<std::unique_ptr<CyclicStream>> StartCyclic(CyclicMode mode) {
+    (void)mode;
+    return absl::UnimplementedError(absl::StrCat("drive '", config().name, "': family '",
+                                                 config().family,
+                                                 "' has no cyclic set-point channel"));
+  }
   // Coordinated move of `group`: this drive first, then its partners, all of this family and on
   // the same controller (the family checks). Returns one handle per drive, in group order, once
   // the controller accepted the move. Families without interpolation: Unimplemented.

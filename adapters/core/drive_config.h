@@ -70,6 +70,14 @@ struct TrinamicConfig {
   std::vector<std::pair<std::string, int64_t>> parameters;
 };
 
+// CANopen node timing (CiA 301) of a CANopen family (STOBER; docs/config.md "canopen").
+struct CanOpenConfig {
+  std::chrono::milliseconds heartbeat{100};      // producer time written to the drive's 1017h
+  std::chrono::milliseconds heartbeat_timeout{350};  // consumer: missing longer -> OFFLINE
+  std::chrono::milliseconds sync_period{2};      // SYNC producer period (cyclic set points)
+  std::chrono::milliseconds sdo_timeout{1000};   // per SDO frame exchange (decision 1103)
+};
+
 struct TimeoutConfig {
   std::chrono::milliseconds request{2000};  // Enable/Disable/Acknowledge/parameter access
   std::chrono::milliseconds accept{100};    // motion command acceptance (count echo), D-11
@@ -85,6 +93,8 @@ struct DriveConfig {
   std::optional<CanBusConfig> can;  // CAN families (linmot-devicenet, later trinamic, canopen)
   std::optional<uint8_t> mac_id;    // DeviceNet MAC ID 0..63
   std::optional<TrinamicConfig> trinamic;
+  std::optional<uint8_t> node_id;  // CANopen node ID 1..127 (family stober)
+  CanOpenConfig canopen;           // CANopen timing (family stober)
 };
 
 }  // namespace drivegw

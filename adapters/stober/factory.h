@@ -1,0 +1,19 @@
+// Factory of the STOBER family: checks DriveConfig (can, node_id, canopen timing) naming the field,
+// then builds the CiA 402 / motion-core drive on the bus's shared CANopen master (stober-motion.md).
+#pragma once
+
+#include <memory>
+
+#include "absl/status/statusor.h"
+#include "adapters/core/clock.h"
+#include "adapters/core/drive.h"
+
+namespace drivegw::stober {
+
+inline constexpr char kFamilyName[] = "stober";
+
+// InvalidArgument "drive 'axis-1'.node_id: 0 is not a CANopen node ID 1..127" etc.
+absl::StatusOr<std::unique_ptr<Drive>> CreateStoberDrive(const DriveConfig& config,
+                                                         const Clock& clock);
+
+}  // namespace drivegw::stober
