@@ -116,6 +116,39 @@ TEST(StoberAxisModes, HomeOnZeroPulseOnly) {
   EXPECT_GT(cycles, 330 / 50 * 1000);  // travelled ≈ 330 u at 50 u/s
 }
 
+// Reference-switch search in either direction, also when the search starts on the switch: the
+// reference point is always the switch edge on the approach side (decision 1150).
+double ReferenceSwitchHome(double start, int direction) {
+  MotionCoreOptions options;
+  options.reference_switch = {{-100, -50}};
+  TestAxis axis(Fixture::kLin, options);
+  axis.core().SetActualPosition(start);
+  axis.W("I30", 1);
+  axis.W("I31", direction);
+  axis.W("I33", 10);
+  axis.W("I34", 1000);
+  axis.Start(Command::kHome);
+  EXPECT_GT(axis.RunUntilDone(), 0);
+  EXPECT_EQ(axis.R("I86"), 1);
+  EXPECT_EQ(axis.R("I89"), 2);
+  return axis.R("I80");
+}
+
+TEST(StoberAxisModes, ReferenceSwitchSearchBothDirectionsAndFromOnTheSwitch) {
+  // The reference point reads I34 = 1000; the stop from the slow 10 u/s with I39 = 1000,
+  // I44 = 10000 adds ≈ 0.32 u in the return direction.
+  // Negative search from 0 meets the switch at −50 and leaves it there going back (positive).
+  const double negative = ReferenceSwitchHome(0, 1);
+  EXPECT_GT(negative, 1000);
+  EXPECT_LT(negative, 1000.5);
+  // Positive search from −200 leaves it at −100 going back (negative).
+  const double positive = ReferenceSwitchHome(-200, 0);
+  EXPECT_LT(positive, 1000);
+  EXPECT_GT(positive, 999.5);
+  // Starting on the switch (−70) searching negative: out positive through −50, as the first.
+  EXPECT_NEAR(ReferenceSwitchHome(-70, 1), negative, 1e-3);
+}
+
 TEST(StoberAxisModes, EndlessMoveRelativeWrapsAround) {
   TestAxis axis(Fixture::kEnd);
   axis.core().SetActualPosition(350);
