@@ -19,24 +19,36 @@ std::string CommandResourceName(const std::string& drive, uint64_t id) {
 
 v1::DriveState ToProto(DriveState s) {
   switch (s) {
-    case DriveState::kOffline: return v1::OFFLINE;
-    case DriveState::kDisabled: return v1::DISABLED;
-    case DriveState::kReady: return v1::READY;
-    case DriveState::kEnabled: return v1::ENABLED;
-    case DriveState::kMoving: return v1::MOVING;
-    case DriveState::kHoming: return v1::HOMING;
-    case DriveState::kFault: return v1::FAULT;
+    case DriveState::kOffline:
+      return v1::OFFLINE;
+    case DriveState::kDisabled:
+      return v1::DISABLED;
+    case DriveState::kReady:
+      return v1::READY;
+    case DriveState::kEnabled:
+      return v1::ENABLED;
+    case DriveState::kMoving:
+      return v1::MOVING;
+    case DriveState::kHoming:
+      return v1::HOMING;
+    case DriveState::kFault:
+      return v1::FAULT;
   }
   return v1::DRIVE_STATE_UNSPECIFIED;
 }
 
 v1::CommandState ToProto(CommandState s) {
   switch (s) {
-    case CommandState::kBusy: return v1::BUSY;
-    case CommandState::kActive: return v1::ACTIVE;
-    case CommandState::kDone: return v1::DONE;
-    case CommandState::kAborted: return v1::ABORTED;
-    case CommandState::kError: return v1::ERROR;
+    case CommandState::kBusy:
+      return v1::BUSY;
+    case CommandState::kActive:
+      return v1::ACTIVE;
+    case CommandState::kDone:
+      return v1::DONE;
+    case CommandState::kAborted:
+      return v1::ABORTED;
+    case CommandState::kError:
+      return v1::ERROR;
   }
   return v1::COMMAND_STATE_UNSPECIFIED;
 }

@@ -10,9 +10,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
-#include "adapters/core/log.h"
-#include "google/protobuf/util/json_util.h"
+#include "server/core/audit.h"
 #include "server/core/convert.h"
+#include "server/core/cyclic_validation.h"
 #include "server/core/errors.h"
 #include "server/core/validation.h"
 #include "storage/audit_log.h"
@@ -23,14 +23,6 @@ namespace {
 constexpr double kDefaultWatchRateHz = 20;
 constexpr double kMaxWatchRateHz = 1000;
 
-std::string ToJson(const google::protobuf::Message& m) {
-  std::string out;
-  google::protobuf::util::JsonPrintOptions o;
-  o.preserve_proto_field_names = true;
-  if (!google::protobuf::util::MessageToJsonString(m, &out, o).ok()) return "{}";
-  return out;
-}
-
 // Content of a snapshot without the fields that change on every publish.
 std::string ContentKey(v1::DriveStatus s) {
   s.clear_time();
@@ -40,12 +32,14 @@ std::string ContentKey(v1::DriveStatus s) {
 
 }  // namespace
 
-DriveServiceCore::DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit)
+DriveServiceCore::DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives,
+                                   storage::AuditLog* audit)
     : drives_(std::move(drives)), audit_(audit) {
   for (const auto& d : drives_) by_name_[d->config().name] = d.get();
 }
 
-absl::StatusOr<Drive*> DriveServiceCore::Find(const std::string& field, const std::string& name) const {
+absl::StatusOr<Drive*> DriveServiceCore::Find(const std::string& field,
+                                              const std::string& name) const {
   if (name.empty()) return FieldError(field, "is required (\"drives/{drive}\")");
   absl::string_view id = name;
   if (absl::StartsWith(id, "drives/")) id.remove_prefix(7);
@@ -59,22 +53,10 @@ absl::StatusOr<Drive*> DriveServiceCore::Find(const std::string& field, const st
   return it->second;
 }
 
-void DriveServiceCore::Audit(const CallContext& c, const std::string& drive, const std::string& action,
-                             const google::protobuf::Message& request, const absl::Status& result) {
-  if (audit_ == nullptr) return;
-  storage::AuditEntry e;
-  e.time = std::chrono::system_clock::now();
-  e.principal = c.principal;
-  e.source_address = c.source_address;
-  e.drive = drive;
-  e.action = action;
-  e.request_json = ToJson(request);
-  e.result_code = static_cast<int>(result.code());
-  e.result_message = std::string(result.message());
-  if (absl::Status s = audit_->Append(e); !s.ok()) {
-    // The call itself already happened; an operator must look at the storage.
-    log::Error("audit_append_failed", log::Fields().Add("drive", drive).Add("action", action).Add("error", s.message()));
-  }
+void DriveServiceCore::Audit(const CallContext& c, const std::string& drive,
+                             const std::string& action, const google::protobuf::Message& request,
+                             const absl::Status& result) {
+  WriteAudit(audit_, c, drive, action, ToAuditJson(request), result);
 }
 
 template <typename Req>
@@ -98,7 +80,8 @@ absl::StatusOr<v1::CommandHandle> DriveServiceCore::RunCommand(
   return out;
 }
 
-absl::StatusOr<v1::ListDrivesResponse> DriveServiceCore::ListDrives(const v1::ListDrivesRequest&, const CallContext&) {
+absl::StatusOr<v1::ListDrivesResponse> DriveServiceCore::ListDrives(const v1::ListDrivesRequest&,
+                                                                    const CallContext&) {
   v1::ListDrivesResponse resp;
   for (const auto& d : drives_) {
     v1::GetDriveRequest g;
@@ -109,7 +92,8 @@ absl::StatusOr<v1::ListDrivesResponse> DriveServiceCore::ListDrives(const v1::Li
   return resp;
 }
 
-absl::StatusOr<v1::Drive> DriveServiceCore::GetDrive(const v1::GetDriveRequest& r, const CallContext&) {
+absl::StatusOr<v1::Drive> DriveServiceCore::GetDrive(const v1::GetDriveRequest& r,
+                                                     const CallContext&) {
   auto drive = Find("name", r.name());
   if (!drive.ok()) return drive.status();
   Drive& d = **drive;
@@ -122,35 +106,41 @@ absl::StatusOr<v1::Drive> DriveServiceCore::GetDrive(const v1::GetDriveRequest& 
   return out;
 }
 
-absl::StatusOr<v1::CommandHandle> DriveServiceCore::Enable(const v1::EnableRequest& r, const CallContext& c) {
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::Enable(const v1::EnableRequest& r,
+                                                           const CallContext& c) {
   return RunCommand("Enable", r, c, [](Drive& d) { return d.Enable(); });
 }
-absl::StatusOr<v1::CommandHandle> DriveServiceCore::Disable(const v1::DisableRequest& r, const CallContext& c) {
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::Disable(const v1::DisableRequest& r,
+                                                            const CallContext& c) {
   return RunCommand("Disable", r, c, [](Drive& d) { return d.Disable(); });
 }
-absl::StatusOr<v1::CommandHandle> DriveServiceCore::Home(const v1::HomeRequest& r, const CallContext& c) {
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::Home(const v1::HomeRequest& r,
+                                                         const CallContext& c) {
   return RunCommand("Home", r, c, [](Drive& d) { return d.Home(); });
 }
-absl::StatusOr<v1::CommandHandle> DriveServiceCore::AcknowledgeFault(const v1::AcknowledgeFaultRequest& r,
-                                                                     const CallContext& c) {
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::AcknowledgeFault(
+    const v1::AcknowledgeFaultRequest& r, const CallContext& c) {
   return RunCommand("AcknowledgeFault", r, c, [](Drive& d) { return d.AcknowledgeFault(); });
 }
 
-absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveAbsolute(const v1::MoveAbsoluteRequest& r, const CallContext& c) {
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveAbsolute(const v1::MoveAbsoluteRequest& r,
+                                                                 const CallContext& c) {
   return RunCommand("MoveAbsolute", r, c, [&](Drive& d) -> absl::StatusOr<CommandInfo> {
     auto cmd = ValidateMoveAbsolute(r, d.config().axis);
     if (!cmd.ok()) return cmd.status();
     return d.Move(*cmd);
   });
 }
-absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveRelative(const v1::MoveRelativeRequest& r, const CallContext& c) {
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveRelative(const v1::MoveRelativeRequest& r,
+                                                                 const CallContext& c) {
   return RunCommand("MoveRelative", r, c, [&](Drive& d) -> absl::StatusOr<CommandInfo> {
     auto cmd = ValidateMoveRelative(r, d.config().axis, d.GetStatus().demand_position_mm);
     if (!cmd.ok()) return cmd.status();
     return d.Move(*cmd);
   });
 }
-absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveVelocity(const v1::MoveVelocityRequest& r, const CallContext& c) {
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveVelocity(const v1::MoveVelocityRequest& r,
+                                                                 const CallContext& c) {
   return RunCommand("MoveVelocity", r, c, [&](Drive& d) -> absl::StatusOr<CommandInfo> {
     auto cmd = ValidateMoveVelocity(r, d.config().axis);
     if (!cmd.ok()) return cmd.status();
@@ -211,7 +201,8 @@ absl::StatusOr<v1::MoveCoordinatedResponse> DriveServiceCore::MoveCoordinated(
   return out;
 }
 
-absl::StatusOr<v1::CommandHandle> DriveServiceCore::Stop(const v1::StopRequest& r, const CallContext& c) {
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::Stop(const v1::StopRequest& r,
+                                                         const CallContext& c) {
   return RunCommand("Stop", r, c, [&](Drive& d) -> absl::StatusOr<CommandInfo> {
     auto cmd = ValidateStop(r, d.config().axis);
     if (!cmd.ok()) return cmd.status();
@@ -219,24 +210,31 @@ absl::StatusOr<v1::CommandHandle> DriveServiceCore::Stop(const v1::StopRequest& 
   });
 }
 
-absl::StatusOr<v1::CommandHandle> DriveServiceCore::GetCommand(const v1::GetCommandRequest& r, const CallContext&) {
+absl::StatusOr<v1::CommandHandle> DriveServiceCore::GetCommand(const v1::GetCommandRequest& r,
+                                                               const CallContext&) {
   // "drives/x1/commands/17"
   std::vector<std::string> parts = absl::StrSplit(r.name(), '/');
   uint64_t id = 0;
-  if (parts.size() != 4 || parts[0] != "drives" || parts[2] != "commands" || !absl::SimpleAtoi(parts[3], &id)) {
-    return FieldError("name", absl::StrCat("'", r.name(), "' is not \"drives/{drive}/commands/{id}\""));
+  if (parts.size() != 4 || parts[0] != "drives" || parts[2] != "commands" ||
+      !absl::SimpleAtoi(parts[3], &id)) {
+    return FieldError("name",
+                      absl::StrCat("'", r.name(), "' is not \"drives/{drive}/commands/{id}\""));
   }
   auto drive = Find("name", parts[1]);
   if (!drive.ok()) return drive.status();
   auto info = (*drive)->GetCommand(id);
-  if (!info) return absl::NotFoundError(absl::StrCat("name: ", r.name(), " is unknown or no longer kept"));
+  if (!info)
+    return absl::NotFoundError(absl::StrCat("name: ", r.name(), " is unknown or no longer kept"));
   return ToProto((*drive)->config().name, *info);
 }
 
-absl::StatusOr<v1::Parameter> DriveServiceCore::ReadParameter(const v1::ReadParameterRequest& r, const CallContext&) {
+absl::StatusOr<v1::Parameter> DriveServiceCore::ReadParameter(const v1::ReadParameterRequest& r,
+                                                              const CallContext&) {
   auto drive = Find("name", r.name());
   if (!drive.ok()) return drive.status();
-  if (auto s = ValidateParameterId("read_parameter", (*drive)->config().family, r.parameter_id()); !s.ok()) return s;
+  if (auto s = ValidateParameterId("read_parameter", (*drive)->config().family, r.parameter_id());
+      !s.ok())
+    return s;
   auto v = (*drive)->ReadParameter(ParameterRef{r.parameter_id(), r.rom()});
   if (!v.ok()) return v.status();
   v1::Parameter p;
@@ -247,15 +245,19 @@ absl::StatusOr<v1::Parameter> DriveServiceCore::ReadParameter(const v1::ReadPara
   return p;
 }
 
-absl::StatusOr<v1::Parameter> DriveServiceCore::WriteParameter(const v1::WriteParameterRequest& r, const CallContext& c) {
+absl::StatusOr<v1::Parameter> DriveServiceCore::WriteParameter(const v1::WriteParameterRequest& r,
+                                                               const CallContext& c) {
   auto drive = Find("name", r.name());
   absl::StatusOr<v1::Parameter> out;
   std::string drive_name = drive.ok() ? (*drive)->config().name : r.name();
   if (!drive.ok()) {
     out = drive.status();
-  } else if (auto s = ValidateParameterId("write_parameter", (*drive)->config().family, r.parameter_id()); !s.ok()) {
+  } else if (auto s = ValidateParameterId("write_parameter", (*drive)->config().family,
+                                          r.parameter_id());
+             !s.ok()) {
     out = s;
-  } else if (auto w = (*drive)->WriteParameter(ParameterRef{r.parameter_id(), r.rom()}, r.value()); !w.ok()) {
+  } else if (auto w = (*drive)->WriteParameter(ParameterRef{r.parameter_id(), r.rom()}, r.value());
+             !w.ok()) {
     out = w;
   } else {
     v1::Parameter p;
@@ -269,8 +271,8 @@ absl::StatusOr<v1::Parameter> DriveServiceCore::WriteParameter(const v1::WritePa
   return out;
 }
 
-absl::StatusOr<v1::NativeCommandResponse> DriveServiceCore::SendNativeCommand(const v1::SendNativeCommandRequest& r,
-                                                                              const CallContext& c) {
+absl::StatusOr<v1::NativeCommandResponse> DriveServiceCore::SendNativeCommand(
+    const v1::SendNativeCommandRequest& r, const CallContext& c) {
   auto drive = Find("name", r.name());
   absl::StatusOr<v1::NativeCommandResponse> out;
   std::string drive_name = drive.ok() ? (*drive)->config().name : r.name();
@@ -288,7 +290,8 @@ absl::StatusOr<v1::NativeCommandResponse> DriveServiceCore::SendNativeCommand(co
     v1::NativeCommandResponse resp;
     resp.set_name(DriveResourceName(drive_name));
     if (reply->command_id != 0) {
-      if (auto info = (*drive)->GetCommand(reply->command_id)) *resp.mutable_command() = ToProto(drive_name, *info);
+      if (auto info = (*drive)->GetCommand(reply->command_id))
+        *resp.mutable_command() = ToProto(drive_name, *info);
     }
     resp.set_rtc_status(reply->status);
     resp.set_word2(reply->word2);
@@ -301,13 +304,49 @@ absl::StatusOr<v1::NativeCommandResponse> DriveServiceCore::SendNativeCommand(co
   return out;
 }
 
+absl::StatusOr<std::unique_ptr<CyclicSetpointStream>> DriveServiceCore::StartCyclicSetpoints(
+    const v1::CyclicSetpointRequest& first, const CallContext& c) {
+  auto drive = Find("name", first.name());
+  const std::string drive_name = drive.ok() ? (*drive)->config().name : first.name();
+  absl::StatusOr<std::unique_ptr<CyclicSetpointStream>> out =
+      [&]() -> absl::StatusOr<std::unique_ptr<CyclicSetpointStream>> {
+    if (!drive.ok()) return drive.status();
+    auto mode = ValidateCyclicMode(first.mode());
+    if (!mode.ok()) return mode.status();
+    // A bad first set point never starts the command.
+    if (first.has_setpoint()) {
+      auto sp = ValidateCyclicSetpoint(first.setpoint(), *mode, (*drive)->config().axis, 0);
+      if (!sp.ok()) return sp.status();
+    }
+    if (shutting_down_.load()) return absl::UnavailableError("the gateway is shutting down");
+    auto started = (*drive)->StartCyclic(*mode);
+    if (!started.ok()) return started.status();
+    if (*started == nullptr) {
+      return absl::InternalError(absl::StrCat("drive '", drive_name, "' started no cyclic stream"));
+    }
+    return std::make_unique<CyclicSetpointStream>(**drive, *mode, *std::move(started), first, c,
+                                                  audit_, shutting_down_);
+  }();
+  if (!out.ok()) {
+    WriteAudit(audit_, c, drive_name, kCyclicAuditAction, CyclicAuditJson(first, nullptr),
+               out.status());
+    return out;
+  }
+  if (first.has_setpoint()) {
+    // Refused by the drive: close the command first, then report (End audits).
+    if (auto s = (*out)->PushSetpoint(first.setpoint()); !s.ok()) return (*out)->End(s).status();
+  }
+  return out;
+}
+
 absl::Status DriveServiceCore::WatchDrives(const v1::WatchDrivesRequest& r, const CallContext&,
                                            const std::function<bool(const v1::DriveStatus&)>& sink,
                                            const std::function<bool()>& cancelled) {
   double rate = r.max_rate_hz();
   if (!(rate >= 0)) return FieldError("max_rate_hz", absl::StrCat(rate, " must not be negative"));
   if (rate > kMaxWatchRateHz) {
-    return FieldError("max_rate_hz", absl::StrCat(rate, " exceeds ", kMaxWatchRateHz), absl::StatusCode::kOutOfRange);
+    return FieldError("max_rate_hz", absl::StrCat(rate, " exceeds ", kMaxWatchRateHz),
+                      absl::StatusCode::kOutOfRange);
   }
   if (rate == 0) rate = kDefaultWatchRateHz;
   std::vector<Drive*> watched;
@@ -343,7 +382,8 @@ absl::Status DriveServiceCore::WatchDrives(const v1::WatchDrivesRequest& r, cons
     if (next < now) next = now;
     // Sleep in short slices so cancellation and shutdown end the stream promptly.
     while (!shutting_down_.load() && !cancelled() && std::chrono::steady_clock::now() < next) {
-      std::this_thread::sleep_until(std::min(next, std::chrono::steady_clock::now() + std::chrono::milliseconds(20)));
+      std::this_thread::sleep_until(
+          std::min(next, std::chrono::steady_clock::now() + std::chrono::milliseconds(20)));
     }
   }
   return absl::OkStatus();

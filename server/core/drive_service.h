@@ -12,6 +12,8 @@
 #include "absl/status/statusor.h"
 #include "adapters/core/drive.h"
 #include "drivegw/v1/drive.pb.h"
+#include "server/core/call_context.h"
+#include "server/core/cyclic_stream.h"
 
 namespace drivegw::storage {
 class AuditLog;
@@ -19,38 +21,46 @@ class AuditLog;
 
 namespace drivegw::server {
 
-// Who is calling, as the front end saw it (principal is "anonymous" until authentication).
-struct CallContext {
-  std::string principal = "anonymous";
-  std::string source_address;
-  std::string transport;  // "grpc" or "rest"
-};
-
 class DriveServiceCore {
  public:
   // `audit` may be null (tests without storage); drives keep their order for ListDrives.
   DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit);
 
-  absl::StatusOr<v1::ListDrivesResponse> ListDrives(const v1::ListDrivesRequest& r, const CallContext& c);
+  absl::StatusOr<v1::ListDrivesResponse> ListDrives(const v1::ListDrivesRequest& r,
+                                                    const CallContext& c);
   absl::StatusOr<v1::Drive> GetDrive(const v1::GetDriveRequest& r, const CallContext& c);
   absl::StatusOr<v1::CommandHandle> Enable(const v1::EnableRequest& r, const CallContext& c);
   absl::StatusOr<v1::CommandHandle> Disable(const v1::DisableRequest& r, const CallContext& c);
   absl::StatusOr<v1::CommandHandle> Home(const v1::HomeRequest& r, const CallContext& c);
-  absl::StatusOr<v1::CommandHandle> MoveAbsolute(const v1::MoveAbsoluteRequest& r, const CallContext& c);
-  absl::StatusOr<v1::CommandHandle> MoveRelative(const v1::MoveRelativeRequest& r, const CallContext& c);
-  absl::StatusOr<v1::CommandHandle> MoveVelocity(const v1::MoveVelocityRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> MoveAbsolute(const v1::MoveAbsoluteRequest& r,
+                                                 const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> MoveRelative(const v1::MoveRelativeRequest& r,
+                                                 const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> MoveVelocity(const v1::MoveVelocityRequest& r,
+                                                 const CallContext& c);
   // Interpolated move of two or more drives of one controller: looks up every target (each drive
   // once, one family), checks positions and dynamics against the axes, then hands the whole group
   // to the first drive (Drive::MoveCoordinated). One audit entry naming every drive.
   absl::StatusOr<v1::MoveCoordinatedResponse> MoveCoordinated(const v1::MoveCoordinatedRequest& r,
                                                               const CallContext& c);
   absl::StatusOr<v1::CommandHandle> Stop(const v1::StopRequest& r, const CallContext& c);
-  absl::StatusOr<v1::CommandHandle> AcknowledgeFault(const v1::AcknowledgeFaultRequest& r, const CallContext& c);
-  absl::StatusOr<v1::CommandHandle> GetCommand(const v1::GetCommandRequest& r, const CallContext& c);
-  absl::StatusOr<v1::Parameter> ReadParameter(const v1::ReadParameterRequest& r, const CallContext& c);
-  absl::StatusOr<v1::Parameter> WriteParameter(const v1::WriteParameterRequest& r, const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> AcknowledgeFault(const v1::AcknowledgeFaultRequest& r,
+                                                     const CallContext& c);
+  absl::StatusOr<v1::CommandHandle> GetCommand(const v1::GetCommandRequest& r,
+                                               const CallContext& c);
+  absl::StatusOr<v1::Parameter> ReadParameter(const v1::ReadParameterRequest& r,
+                                              const CallContext& c);
+  absl::StatusOr<v1::Parameter> WriteParameter(const v1::WriteParameterRequest& r,
+                                               const CallContext& c);
   absl::StatusOr<v1::NativeCommandResponse> SendNativeCommand(const v1::SendNativeCommandRequest& r,
                                                               const CallContext& c);
+
+  // StreamCyclicSetpoints (gRPC only): checks the first message (drive, mode, its optional set
+  // point as setpoints[0]), starts the drive's cyclic command (BLOCKS: Drive::StartCyclic) and
+  // queues that set point; the front end then feeds the returned stream and ends it. A refused
+  // start writes the stream's one audit entry here; otherwise the stream's End writes it.
+  absl::StatusOr<std::unique_ptr<CyclicSetpointStream>> StartCyclicSetpoints(
+      const v1::CyclicSetpointRequest& first, const CallContext& c);
 
   // Streams snapshots of the requested drives to `sink` at most max_rate_hz per drive; only
   // snapshots whose content changed are sent (the first one always). Returns when `sink`
@@ -69,8 +79,9 @@ class DriveServiceCore {
   // malformed name.
   absl::StatusOr<Drive*> Find(const std::string& field, const std::string& name) const;
   template <typename Req>
-  absl::StatusOr<v1::CommandHandle> RunCommand(const char* action, const Req& r, const CallContext& c,
-                                               const std::function<absl::StatusOr<CommandInfo>(Drive&)>& op);
+  absl::StatusOr<v1::CommandHandle> RunCommand(
+      const char* action, const Req& r, const CallContext& c,
+      const std::function<absl::StatusOr<CommandInfo>(Drive&)>& op);
   void Audit(const CallContext& c, const std::string& drive, const std::string& action,
              const google::protobuf::Message& request, const absl::Status& result);
 

@@ -8,7 +8,8 @@
 
 namespace drivegw::server {
 
-absl::Status FieldError(std::string_view field, std::string_view description, absl::StatusCode code) {
+absl::Status FieldError(std::string_view field, std::string_view description,
+                        absl::StatusCode code) {
   return FieldErrors({FieldViolation{std::string(field), std::string(description)}}, code);
 }
 
@@ -22,7 +23,8 @@ absl::Status FieldErrors(const std::vector<FieldViolation>& violations, absl::St
     parts.push_back(absl::StrCat(v.field, ": ", v.description));
   }
   absl::Status s(code, absl::StrJoin(parts, "; "));
-  s.SetPayload(absl::string_view(kBadRequestUrl.data(), kBadRequestUrl.size()), absl::Cord(br.SerializeAsString()));
+  s.SetPayload(absl::string_view(kBadRequestUrl.data(), kBadRequestUrl.size()),
+               absl::Cord(br.SerializeAsString()));
   return s;
 }
 
@@ -32,7 +34,8 @@ absl::Status WithErrorInfo(absl::Status status, std::string_view reason,
   info.set_reason(std::string(reason));
   info.set_domain("drivegw");
   for (const auto& [k, v] : metadata) (*info.mutable_metadata())[k] = v;
-  status.SetPayload(absl::string_view(kErrorInfoUrl.data(), kErrorInfoUrl.size()), absl::Cord(info.SerializeAsString()));
+  status.SetPayload(absl::string_view(kErrorInfoUrl.data(), kErrorInfoUrl.size()),
+                    absl::Cord(info.SerializeAsString()));
   return status;
 }
 

@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/core/errors.h"
+#include "server/core/validation_stober.h"
 
 namespace drivegw::server {
 namespace {
@@ -14,11 +15,12 @@ namespace {
 std::string Num(double v) { return absl::StrCat(v); }
 
 // finite, > 0 (or >= 0 when zero_ok), <= limit.
-absl::Status CheckMagnitude(const std::string& field, double v, double limit, const char* limit_name,
-                            bool zero_ok) {
+absl::Status CheckMagnitude(const std::string& field, double v, double limit,
+                            const char* limit_name, bool zero_ok) {
   if (!std::isfinite(v)) return FieldError(field, absl::StrCat(Num(v), " is not a finite number"));
   if (v < 0 || (!zero_ok && v == 0)) {
-    return FieldError(field, absl::StrCat(Num(v), zero_ok ? " must not be negative" : " must be greater than 0"));
+    return FieldError(
+        field, absl::StrCat(Num(v), zero_ok ? " must not be negative" : " must be greater than 0"));
   }
   if (v > limit) {
     return FieldError(field, absl::StrCat(Num(v), " exceeds axis ", limit_name, " ", Num(limit)),
@@ -43,7 +45,9 @@ absl::Status CheckPosition(const std::string& field, double v, const AxisConfig&
 // Velocity, acceleration and deceleration of a move; returns the deceleration to use.
 absl::StatusOr<double> CheckDynamics(const std::string& req, double v, double a, double d,
                                      const AxisConfig& axis) {
-  if (auto s = CheckMagnitude(req + ".velocity_mm_s", v, axis.max_velocity_mm_s, "max_velocity_mm_s", false); !s.ok())
+  if (auto s = CheckMagnitude(req + ".velocity_mm_s", v, axis.max_velocity_mm_s,
+                              "max_velocity_mm_s", false);
+      !s.ok())
     return s;
   if (auto s = CheckMagnitude(req + ".acceleration_mm_s2", a, axis.max_acceleration_mm_s2,
                               "max_acceleration_mm_s2", false);
@@ -125,34 +129,45 @@ absl::StatusOr<NativeRequest> ValidateTrinamicTunnel(const v1::TrinamicTunnel& t
 
 }  // namespace
 
-absl::StatusOr<MotionCommand> ValidateMoveAbsolute(const v1::MoveAbsoluteRequest& r, const AxisConfig& axis) {
+absl::StatusOr<MotionCommand> ValidateMoveAbsolute(const v1::MoveAbsoluteRequest& r,
+                                                   const AxisConfig& axis) {
   if (auto s = CheckPosition("move_absolute.position_mm", r.position_mm(), axis); !s.ok()) return s;
-  auto d = CheckDynamics("move_absolute", r.velocity_mm_s(), r.acceleration_mm_s2(), r.deceleration_mm_s2(), axis);
+  auto d = CheckDynamics("move_absolute", r.velocity_mm_s(), r.acceleration_mm_s2(),
+                         r.deceleration_mm_s2(), axis);
   if (!d.ok()) return d.status();
   return MoveAbsolute{r.position_mm(), r.velocity_mm_s(), r.acceleration_mm_s2(), *d};
 }
 
-absl::StatusOr<MotionCommand> ValidateMoveRelative(const v1::MoveRelativeRequest& r, const AxisConfig& axis,
+absl::StatusOr<MotionCommand> ValidateMoveRelative(const v1::MoveRelativeRequest& r,
+                                                   const AxisConfig& axis,
                                                    double demand_position_mm) {
   const double dist = r.distance_mm();
-  if (!std::isfinite(dist)) return FieldError("move_relative.distance_mm", absl::StrCat(Num(dist), " is not a finite number"));
+  if (!std::isfinite(dist))
+    return FieldError("move_relative.distance_mm",
+                      absl::StrCat(Num(dist), " is not a finite number"));
   const double target = demand_position_mm + dist;
   if (target < axis.min_mm || target > axis.max_mm) {
     return FieldError("move_relative.distance_mm",
-                      absl::StrCat(Num(dist), " from ", Num(demand_position_mm), " mm ends at ", Num(target),
-                                   " mm, outside the axis range [", Num(axis.min_mm), ", ", Num(axis.max_mm), "]"),
+                      absl::StrCat(Num(dist), " from ", Num(demand_position_mm), " mm ends at ",
+                                   Num(target), " mm, outside the axis range [", Num(axis.min_mm),
+                                   ", ", Num(axis.max_mm), "]"),
                       absl::StatusCode::kOutOfRange);
   }
-  auto d = CheckDynamics("move_relative", r.velocity_mm_s(), r.acceleration_mm_s2(), r.deceleration_mm_s2(), axis);
+  auto d = CheckDynamics("move_relative", r.velocity_mm_s(), r.acceleration_mm_s2(),
+                         r.deceleration_mm_s2(), axis);
   if (!d.ok()) return d.status();
   return MoveRelative{dist, r.velocity_mm_s(), r.acceleration_mm_s2(), *d};
 }
 
-absl::StatusOr<MotionCommand> ValidateMoveVelocity(const v1::MoveVelocityRequest& r, const AxisConfig& axis) {
+absl::StatusOr<MotionCommand> ValidateMoveVelocity(const v1::MoveVelocityRequest& r,
+                                                   const AxisConfig& axis) {
   const double v = r.velocity_mm_s();
-  if (!std::isfinite(v)) return FieldError("move_velocity.velocity_mm_s", absl::StrCat(Num(v), " is not a finite number"));
+  if (!std::isfinite(v))
+    return FieldError("move_velocity.velocity_mm_s",
+                      absl::StrCat(Num(v), " is not a finite number"));
   if (v == 0) return FieldError("move_velocity.velocity_mm_s", "0 has no direction; use Stop");
-  auto d = CheckDynamics("move_velocity", std::fabs(v), r.acceleration_mm_s2(), r.deceleration_mm_s2(), axis);
+  auto d = CheckDynamics("move_velocity", std::fabs(v), r.acceleration_mm_s2(),
+                         r.deceleration_mm_s2(), axis);
   if (!d.ok()) {
     // Report the signed field value, not its magnitude.
     return d.status();
@@ -161,21 +176,25 @@ absl::StatusOr<MotionCommand> ValidateMoveVelocity(const v1::MoveVelocityRequest
 }
 
 absl::StatusOr<MotionCommand> ValidateStop(const v1::StopRequest& r, const AxisConfig& axis) {
-  if (auto s = CheckMagnitude("stop.deceleration_mm_s2", r.deceleration_mm_s2(), axis.max_acceleration_mm_s2,
-                              "max_acceleration_mm_s2", true);
+  if (auto s = CheckMagnitude("stop.deceleration_mm_s2", r.deceleration_mm_s2(),
+                              axis.max_acceleration_mm_s2, "max_acceleration_mm_s2", true);
       !s.ok())
     return s;
-  return StopMotion{r.deceleration_mm_s2() == 0 ? axis.max_acceleration_mm_s2 : r.deceleration_mm_s2()};
+  return StopMotion{r.deceleration_mm_s2() == 0 ? axis.max_acceleration_mm_s2
+                                                : r.deceleration_mm_s2()};
 }
 
 absl::StatusOr<NativeRequest> ValidateNative(const v1::SendNativeCommandRequest& r) {
   switch (r.command_case()) {
     case v1::SendNativeCommandRequest::kLinmotMotion: {
       const auto& m = r.linmot_motion();
-      if (m.master_id() > 0xFF) return FieldError("linmot_motion.master_id", absl::StrCat(m.master_id(), " exceeds 255"));
-      if (m.sub_id() > 0xF) return FieldError("linmot_motion.sub_id", absl::StrCat(m.sub_id(), " exceeds 15"));
+      if (m.master_id() > 0xFF)
+        return FieldError("linmot_motion.master_id", absl::StrCat(m.master_id(), " exceeds 255"));
+      if (m.sub_id() > 0xF)
+        return FieldError("linmot_motion.sub_id", absl::StrCat(m.sub_id(), " exceeds 15"));
       if (m.parameters().size() > 30) {
-        return FieldError("linmot_motion.parameters", absl::StrCat(m.parameters().size(), " bytes exceed 30"));
+        return FieldError("linmot_motion.parameters",
+                          absl::StrCat(m.parameters().size(), " bytes exceed 30"));
       }
       LinMotMcRequest out;
       out.master_id = static_cast<uint8_t>(m.master_id());
@@ -185,14 +204,17 @@ absl::StatusOr<NativeRequest> ValidateNative(const v1::SendNativeCommandRequest&
     }
     case v1::SendNativeCommandRequest::kLinmotRtc: {
       const auto& c = r.linmot_rtc();
-      if (c.command_id() > 0xFF) return FieldError("linmot_rtc.command_id", absl::StrCat(c.command_id(), " exceeds 255"));
+      if (c.command_id() > 0xFF)
+        return FieldError("linmot_rtc.command_id", absl::StrCat(c.command_id(), " exceeds 255"));
       const uint32_t words[] = {c.word2(), c.word3(), c.word4()};
       const char* names[] = {"linmot_rtc.word2", "linmot_rtc.word3", "linmot_rtc.word4"};
       for (int i = 0; i < 3; ++i) {
-        if (words[i] > 0xFFFF) return FieldError(names[i], absl::StrCat(words[i], " exceeds 65535"));
+        if (words[i] > 0xFFFF)
+          return FieldError(names[i], absl::StrCat(words[i], " exceeds 65535"));
       }
-      return LinMotRtcRequest{static_cast<uint8_t>(c.command_id()), static_cast<uint16_t>(c.word2()),
-                              static_cast<uint16_t>(c.word3()), static_cast<uint16_t>(c.word4())};
+      return LinMotRtcRequest{static_cast<uint8_t>(c.command_id()),
+                              static_cast<uint16_t>(c.word2()), static_cast<uint16_t>(c.word3()),
+                              static_cast<uint16_t>(c.word4())};
     }
     case v1::SendNativeCommandRequest::kLinmotDevicenet: {
       const auto& c = r.linmot_devicenet();
@@ -209,15 +231,20 @@ absl::StatusOr<NativeRequest> ValidateNative(const v1::SendNativeCommandRequest&
       return ValidateTrinamic(r.trinamic());
     case v1::SendNativeCommandRequest::kTrinamicTunnel:
       return ValidateTrinamicTunnel(r.trinamic_tunnel());
+    case v1::SendNativeCommandRequest::kStober:
+      return ValidateStober(r.stober());
+    case v1::SendNativeCommandRequest::kCanopenSdo:
+      return ValidateCanOpenSdo(r.canopen_sdo());
     case v1::SendNativeCommandRequest::COMMAND_NOT_SET:
       break;
   }
-  return FieldError(
-      "command",
-      "one of linmot_motion, linmot_rtc, linmot_devicenet, trinamic, trinamic_tunnel is required");
+  return FieldError("command",
+                    "one of linmot_motion, linmot_rtc, linmot_devicenet, trinamic, "
+                    "trinamic_tunnel, stober, canopen_sdo is required");
 }
 
-absl::Status ValidateNativeFamily(const v1::SendNativeCommandRequest& r, const std::string& family) {
+absl::Status ValidateNativeFamily(const v1::SendNativeCommandRequest& r,
+                                  const std::string& family) {
   std::string field;
   std::string wanted;
   switch (r.command_case()) {
@@ -240,6 +267,15 @@ absl::Status ValidateNativeFamily(const v1::SendNativeCommandRequest& r, const s
     case v1::SendNativeCommandRequest::kTrinamicTunnel:
       field = "trinamic_tunnel";
       wanted = "trinamic";
+      break;
+    case v1::SendNativeCommandRequest::kStober:
+      field = "stober";
+      wanted = "stober";
+      break;
+    case v1::SendNativeCommandRequest::kCanopenSdo:
+      // Raw SDO is CiA 301, not STOBER-specific; STOBER is the one CANopen family so far.
+      field = "canopen_sdo";
+      wanted = "stober";
       break;
     case v1::SendNativeCommandRequest::COMMAND_NOT_SET:
       return absl::OkStatus();  // ValidateNative names the missing field
@@ -265,7 +301,8 @@ absl::Status ValidateNativeTransport(const v1::SendNativeCommandRequest& r,
   return absl::OkStatus();
 }
 
-absl::Status ValidateParameterId(const char* request, const std::string& family, uint32_t parameter_id) {
+absl::Status ValidateParameterId(const char* request, const std::string& family,
+                                 uint32_t parameter_id) {
   const std::string field = absl::StrCat(request, ".parameter_id");
   // LinMot addresses parameters by 16-bit UPID (linmot-mc.md §9.1).
   if (family.rfind("linmot", 0) == 0 && parameter_id > 0xFFFF) {
@@ -285,6 +322,12 @@ absl::Status ValidateParameterId(const char* request, const std::string& family,
                         absl::StrCat(parameter_id, ": P-index ", parameter_id & 0xFF,
                                      " exceeds 6 (parameters P0..P6, trinamic-sixpack.md §2.3)"));
     }
+  }
+  // STOBER: CANopen index << 8 | subindex (I92 → 305Ch → 0x305C00, stober-motion.md §7.2).
+  if (family == "stober" && parameter_id > 0xFFFFFF) {
+    return FieldError(field, absl::StrCat(parameter_id,
+                                          " exceeds 16777215 (STOBER ids are CANopen index << 8 "
+                                          "| subindex, 24 bit)"));
   }
   return absl::OkStatus();
 }

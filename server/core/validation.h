@@ -16,10 +16,13 @@ namespace drivegw::server {
 // acceleration; stop deceleration 0 → the axis' max acceleration), or a FieldError naming
 // the request field and the limit (InvalidArgument for never-valid values, OutOfRange beyond
 // the configured axis).
-absl::StatusOr<MotionCommand> ValidateMoveAbsolute(const v1::MoveAbsoluteRequest& r, const AxisConfig& axis);
-absl::StatusOr<MotionCommand> ValidateMoveRelative(const v1::MoveRelativeRequest& r, const AxisConfig& axis,
+absl::StatusOr<MotionCommand> ValidateMoveAbsolute(const v1::MoveAbsoluteRequest& r,
+                                                   const AxisConfig& axis);
+absl::StatusOr<MotionCommand> ValidateMoveRelative(const v1::MoveRelativeRequest& r,
+                                                   const AxisConfig& axis,
                                                    double demand_position_mm);
-absl::StatusOr<MotionCommand> ValidateMoveVelocity(const v1::MoveVelocityRequest& r, const AxisConfig& axis);
+absl::StatusOr<MotionCommand> ValidateMoveVelocity(const v1::MoveVelocityRequest& r,
+                                                   const AxisConfig& axis);
 absl::StatusOr<MotionCommand> ValidateStop(const v1::StopRequest& r, const AxisConfig& axis);
 absl::StatusOr<NativeRequest> ValidateNative(const v1::SendNativeCommandRequest& r);
 // The native command must be one of the drive's own family (FieldError naming the oneof field).
@@ -36,6 +39,7 @@ absl::Status ValidateCoordinatedTargetCount(const v1::MoveCoordinatedRequest& r)
 // `axes[i]` is the axis of r.targets(i).
 absl::StatusOr<CoordinatedMove> ValidateMoveCoordinated(const v1::MoveCoordinatedRequest& r,
                                                         const std::vector<AxisConfig>& axes);
-absl::Status ValidateParameterId(const char* request, const std::string& family, uint32_t parameter_id);
+absl::Status ValidateParameterId(const char* request, const std::string& family,
+                                 uint32_t parameter_id);
 
 }  // namespace drivegw::server

@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "absl/strings/match.h"
+#include "server/grpc/cyclic_reactor.h"
 #include "server/grpc/status_mapping.h"
 
 namespace drivegw::server {
@@ -31,7 +32,8 @@ grpc::ServerUnaryReactor* Inline(grpc::CallbackServerContext* ctx, Resp* resp, F
 
 // Runs fn(ctx) on the worker pool (it may block on the drive) and finishes from there.
 template <typename Resp, typename Fn>
-grpc::ServerUnaryReactor* Offload(WorkerPool& pool, grpc::CallbackServerContext* ctx, Resp* resp, Fn fn) {
+grpc::ServerUnaryReactor* Offload(WorkerPool& pool, grpc::CallbackServerContext* ctx, Resp* resp,
+                                  Fn fn) {
   auto* reactor = ctx->DefaultReactor();
   CallContext cc = ContextFrom(*ctx);
   pool.Post([reactor, resp, fn = std::move(fn), cc = std::move(cc)]() mutable {
@@ -121,23 +123,31 @@ grpc::ServerUnaryReactor* DriveServiceGrpc::ListDrives(grpc::CallbackServerConte
                                                        v1::ListDrivesResponse* resp) {
   return Inline(ctx, resp, [&](const CallContext& c) { return core_.ListDrives(*req, c); });
 }
-grpc::ServerUnaryReactor* DriveServiceGrpc::GetDrive(grpc::CallbackServerContext* ctx, const v1::GetDriveRequest* req,
+grpc::ServerUnaryReactor* DriveServiceGrpc::GetDrive(grpc::CallbackServerContext* ctx,
+                                                     const v1::GetDriveRequest* req,
                                                      v1::Drive* resp) {
   return Inline(ctx, resp, [&](const CallContext& c) { return core_.GetDrive(*req, c); });
 }
 grpc::ServerUnaryReactor* DriveServiceGrpc::GetCommand(grpc::CallbackServerContext* ctx,
-                                                       const v1::GetCommandRequest* req, v1::CommandHandle* resp) {
+                                                       const v1::GetCommandRequest* req,
+                                                       v1::CommandHandle* resp) {
   return Inline(ctx, resp, [&](const CallContext& c) { return core_.GetCommand(*req, c); });
 }
-grpc::ServerWriteReactor<v1::DriveStatus>* DriveServiceGrpc::WatchDrives(grpc::CallbackServerContext* ctx,
-                                                                         const v1::WatchDrivesRequest* req) {
+grpc::ServerWriteReactor<v1::DriveStatus>* DriveServiceGrpc::WatchDrives(
+    grpc::CallbackServerContext* ctx, const v1::WatchDrivesRequest* req) {
   return new WatchReactor(core_, *req, ContextFrom(*ctx));  // deletes itself in OnDone
 }
 
-#define DGW_OFFLOAD(Method, Req, Resp)                                                              \
-  grpc::ServerUnaryReactor* DriveServiceGrpc::Method(grpc::CallbackServerContext* ctx, const Req* req, \
-                                                     Resp* resp) {                                 \
-    return Offload(pool_, ctx, resp, [this, req](const CallContext& c) { return core_.Method(*req, c); }); \
+grpc::ServerReadReactor<v1::CyclicSetpointRequest>* DriveServiceGrpc::StreamCyclicSetpoints(
+    grpc::CallbackServerContext* ctx, v1::CyclicStreamSummary* resp) {
+  return NewCyclicSetpointReactor(core_, pool_, ctx, resp);
+}
+
+#define DGW_OFFLOAD(Method, Req, Resp)                                                   \
+  grpc::ServerUnaryReactor* DriveServiceGrpc::Method(grpc::CallbackServerContext* ctx,   \
+                                                     const Req* req, Resp* resp) {       \
+    return Offload(pool_, ctx, resp,                                                     \
+                   [this, req](const CallContext& c) { return core_.Method(*req, c); }); \
   }
 
 DGW_OFFLOAD(Enable, v1::EnableRequest, v1::CommandHandle)

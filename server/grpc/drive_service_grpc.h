@@ -14,23 +14,27 @@ class DriveServiceGrpc final : public v1::DriveService::CallbackService {
  public:
   DriveServiceGrpc(DriveServiceCore& core, WorkerPool& pool) : core_(core), pool_(pool) {}
 
-  grpc::ServerUnaryReactor* ListDrives(grpc::CallbackServerContext* ctx, const v1::ListDrivesRequest* req,
+  grpc::ServerUnaryReactor* ListDrives(grpc::CallbackServerContext* ctx,
+                                       const v1::ListDrivesRequest* req,
                                        v1::ListDrivesResponse* resp) override;
-  grpc::ServerUnaryReactor* GetDrive(grpc::CallbackServerContext* ctx, const v1::GetDriveRequest* req,
-                                     v1::Drive* resp) override;
-  grpc::ServerWriteReactor<v1::DriveStatus>* WatchDrives(grpc::CallbackServerContext* ctx,
-                                                         const v1::WatchDrivesRequest* req) override;
+  grpc::ServerUnaryReactor* GetDrive(grpc::CallbackServerContext* ctx,
+                                     const v1::GetDriveRequest* req, v1::Drive* resp) override;
+  grpc::ServerWriteReactor<v1::DriveStatus>* WatchDrives(
+      grpc::CallbackServerContext* ctx, const v1::WatchDrivesRequest* req) override;
   grpc::ServerUnaryReactor* Enable(grpc::CallbackServerContext* ctx, const v1::EnableRequest* req,
                                    v1::CommandHandle* resp) override;
   grpc::ServerUnaryReactor* Disable(grpc::CallbackServerContext* ctx, const v1::DisableRequest* req,
                                     v1::CommandHandle* resp) override;
   grpc::ServerUnaryReactor* Home(grpc::CallbackServerContext* ctx, const v1::HomeRequest* req,
                                  v1::CommandHandle* resp) override;
-  grpc::ServerUnaryReactor* MoveAbsolute(grpc::CallbackServerContext* ctx, const v1::MoveAbsoluteRequest* req,
+  grpc::ServerUnaryReactor* MoveAbsolute(grpc::CallbackServerContext* ctx,
+                                         const v1::MoveAbsoluteRequest* req,
                                          v1::CommandHandle* resp) override;
-  grpc::ServerUnaryReactor* MoveRelative(grpc::CallbackServerContext* ctx, const v1::MoveRelativeRequest* req,
+  grpc::ServerUnaryReactor* MoveRelative(grpc::CallbackServerContext* ctx,
+                                         const v1::MoveRelativeRequest* req,
                                          v1::CommandHandle* resp) override;
-  grpc::ServerUnaryReactor* MoveVelocity(grpc::CallbackServerContext* ctx, const v1::MoveVelocityRequest* req,
+  grpc::ServerUnaryReactor* MoveVelocity(grpc::CallbackServerContext* ctx,
+                                         const v1::MoveVelocityRequest* req,
                                          v1::CommandHandle* resp) override;
   grpc::ServerUnaryReactor* MoveCoordinated(grpc::CallbackServerContext* ctx,
                                             const v1::MoveCoordinatedRequest* req,
@@ -40,15 +44,21 @@ class DriveServiceGrpc final : public v1::DriveService::CallbackService {
   grpc::ServerUnaryReactor* AcknowledgeFault(grpc::CallbackServerContext* ctx,
                                              const v1::AcknowledgeFaultRequest* req,
                                              v1::CommandHandle* resp) override;
-  grpc::ServerUnaryReactor* GetCommand(grpc::CallbackServerContext* ctx, const v1::GetCommandRequest* req,
+  grpc::ServerUnaryReactor* GetCommand(grpc::CallbackServerContext* ctx,
+                                       const v1::GetCommandRequest* req,
                                        v1::CommandHandle* resp) override;
-  grpc::ServerUnaryReactor* ReadParameter(grpc::CallbackServerContext* ctx, const v1::ReadParameterRequest* req,
+  grpc::ServerUnaryReactor* ReadParameter(grpc::CallbackServerContext* ctx,
+                                          const v1::ReadParameterRequest* req,
                                           v1::Parameter* resp) override;
-  grpc::ServerUnaryReactor* WriteParameter(grpc::CallbackServerContext* ctx, const v1::WriteParameterRequest* req,
+  grpc::ServerUnaryReactor* WriteParameter(grpc::CallbackServerContext* ctx,
+                                           const v1::WriteParameterRequest* req,
                                            v1::Parameter* resp) override;
   grpc::ServerUnaryReactor* SendNativeCommand(grpc::CallbackServerContext* ctx,
                                               const v1::SendNativeCommandRequest* req,
                                               v1::NativeCommandResponse* resp) override;
+  // Client streaming (no REST binding): server/grpc/cyclic_reactor.h.
+  grpc::ServerReadReactor<v1::CyclicSetpointRequest>* StreamCyclicSetpoints(
+      grpc::CallbackServerContext* ctx, v1::CyclicStreamSummary* resp) override;
 
  private:
   DriveServiceCore& core_;

@@ -1,0 +1,39 @@
+// Audit entries of the service core.
+#include "server/core/audit.h"
+
+#include <chrono>
+
+#include "adapters/core/log.h"
+#include "google/protobuf/util/json_util.h"
+#include "storage/audit_log.h"
+
+namespace drivegw::server {
+
+std::string ToAuditJson(const google::protobuf::Message& m) {
+  std::string out;
+  google::protobuf::util::JsonPrintOptions o;
+  o.preserve_proto_field_names = true;
+  if (!google::protobuf::util::MessageToJsonString(m, &out, o).ok()) return "{}";
+  return out;
+}
+
+void WriteAudit(storage::AuditLog* audit, const CallContext& c, const std::string& drive,
+                const std::string& action, const std::string& request_json,
+                const absl::Status& result) {
+  if (audit == nullptr) return;
+  storage::AuditEntry e;
+  e.time = std::chrono::system_clock::now();
+  e.principal = c.principal;
+  e.source_address = c.source_address;
+  e.drive = drive;
+  e.action = action;
+  e.request_json = request_json;
+  e.result_code = static_cast<int>(result.code());
+  e.result_message = std::string(result.message());
+  if (absl::Status s = audit->Append(e); !s.ok()) {
+    log::Error("audit_append_failed",
+               log::Fields().Add("drive", drive).Add("action", action).Add("error", s.message()));
+  }
+}
+
+}  // namespace drivegw::server
