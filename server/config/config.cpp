@@ -18,9 +18,12 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "adapters/stober/factory.h"
 #include "adapters/trinamic/factory.h"
+#include "server/config/can_buses.h"
 #include "server/config/can_config.h"
 #include "server/config/section.h"
+#include "server/config/stober_config.h"
 #include "server/config/trinamic_config.h"
 
 namespace drivegw::config {
@@ -244,6 +247,8 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
   std::map<std::pair<std::string, uint16_t>, size_t> targets;  // linudp host:port -> index
   std::map<std::pair<std::string, uint8_t>, size_t> mac_ids;   // (CAN bus, MAC ID) -> index
   internal::TrinamicControllers trinamic(errors);
+  internal::CanOpenNodes canopen_nodes(errors);
+  internal::CanBusProtocols bus_protocols(errors);
   for (size_t i = 0; i < node.size(); ++i) {
     const YAML::Node entry = node[i];
     const std::string path = absl::StrCat("drives[", i, "]");
@@ -252,7 +257,8 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
       continue;
     }
     const Section s(entry, path,
-                    {"name", "family", "linudp", "can", "mac_id", "trinamic", "axis", "timeouts"},
+                    {"name", "family", "linudp", "can", "mac_id", "node_id", "canopen", "trinamic",
+                     "axis", "timeouts"},
                     errors);
     DriveConfig drive;
     if (s.String("name", drive.name, /*required=*/true)) {
@@ -313,6 +319,14 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
     ParseAxis(s, drive.axis);
     ParseTimeouts(s, drive.timeouts);
     ParseTrinamicDrive(s, i, drive, trinamic);
+    internal::ParseCanOpenDrive(s, drive);
+    canopen_nodes.Add(i, s, drive);
+    if (drive.can) bus_protocols.Add(i, drive.family, s.Child("can"), *drive.can, *s.Get("can"));
+    if (drive.trinamic && drive.trinamic->can) {
+      const YAML::Node t = *s.Get("trinamic");
+      bus_protocols.Add(i, drive.family, absl::StrCat(s.Child("trinamic"), ".can"),
+                        *drive.trinamic->can, t["can"]);
+    }
     cfg.drives.push_back(std::move(drive));
   }
   trinamic.Finish();
@@ -498,6 +512,22 @@ std::vector<DriveConfig> DemoTrinamicDrives(const std::string& device) {
     drives.push_back(std::move(d));
   }
   return drives;
+}
+
+DriveConfig DemoStoberDrive(const CanBusConfig& bus) {
+  DriveConfig d;
+  d.name = "s1";
+  d.family = stober::kFamilyName;
+  // The simulator's power-on catalogue is the F-LIN fixture (stober-motion.md §10.1, decision
+  // 1141): I50 = +10000, I51 = -10000, I10 = 1000, I11 = 10000 in u; 1 u = 1 mm (decision 409).
+  d.axis.kind = AxisKind::kLinear;
+  d.axis.min_mm = -10000;
+  d.axis.max_mm = 10000;
+  d.axis.max_velocity_mm_s = 1000;
+  d.axis.max_acceleration_mm_s2 = 10000;
+  d.can = bus;
+  d.node_id = 3;
+  return d;
 }
 
 }  // namespace drivegw::config

@@ -12,10 +12,11 @@
 
 namespace drivegw::config {
 
-// Drive families the composition root can build; each new family appends its name here
-// (later: "stober"). linmot requires `linudp:`, linmot-devicenet `can:` and `mac_id`, trinamic
-// `trinamic:` (docs/config.md).
-inline constexpr std::string_view kKnownFamilies[] = {"linmot", "linmot-devicenet", "trinamic"};
+// Drive families the composition root can build; each new family appends its name here.
+// linmot requires `linudp:`, linmot-devicenet `can:` and `mac_id`, trinamic `trinamic:`, stober
+// `can:` and `node_id` (docs/config.md).
+inline constexpr std::string_view kKnownFamilies[] = {"linmot", "linmot-devicenet", "trinamic",
+                                                      "stober"};
 
 // Larger inputs are refused before parsing (bounds parser work; a real config is a few KiB).
 inline constexpr size_t kMaxConfigBytes = 1 << 20;
@@ -51,5 +52,10 @@ std::vector<DriveConfig> DemoDrives(uint16_t first_drive_port = 49360);
 // SIXpack at address 1 on the serial device `device` (the pty symlink the server creates):
 // 19200 baud, 640 microsteps/mm, limits reachable with the PACK's reset defaults.
 std::vector<DriveConfig> DemoTrinamicDrives(const std::string& device);
+
+// The demo STOBER axis "s1": CANopen node 3 on `bus`, a bus of its own (DeviceNet and CANopen
+// never share one, decision 407). 1 u = 1 mm; the limits are the simulated axis's power-on
+// values (I50/I51 ±10000 mm, I10 1000 mm/s, I11 10000 mm/s², decision 409).
+DriveConfig DemoStoberDrive(const CanBusConfig& bus);
 
 }  // namespace drivegw::config
