@@ -1,0 +1,178 @@
+// StoberDrive: one STOBER axis (CiA 402 + the motion core's I401/I402 command interface) on the
+// bus's shared CanopenMaster (adapters/canopen/master_pool.h), behind the unified Drive API.
+// Status comes from TPDO1 (6041h, I89, I90, packed flags 4000h) and TPDO2 (6064h, 606Ch) of the
+// default PDO layout (object_map.h, decision 1175); set values and the Execute edge go out as
+// RPDOs. Sources: stober-motion.md §1-§4, §2.15; CiA 301/402; decisions 1191-1219.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "adapters/canopen/master.h"
+#include "adapters/core/clock.h"
+#include "adapters/core/drive_base.h"
+#include "adapters/stober/cia402_master.h"
+#include "adapters/stober/object_map.h"
+
+namespace drivegw::stober {
+
+struct StoberDriveCounters {
+  uint64_t configurations = 0;  // successful node configurations (activation, boot-up, resume)
+  uint64_t configure_failures = 0;
+  uint64_t status_tpdos = 0;
+  uint64_t actual_tpdos = 0;
+  uint64_t rpdos = 0;
+  uint64_t bootups = 0;  // boot-up messages after the first configuration (reboots)
+  uint64_t heartbeat_losses = 0;
+  uint64_t emcy = 0;
+};
+
+// The RPDO images the drive keeps (every RPDO carries all its fields, so the unchanged ones are
+// re-sent from here; refreshed from the node at every configuration, decision 1196).
+struct RpdoImage {
+  uint16_t control_word = 0;      // 6040h
+  uint8_t command = 0;            // I401
+  double position = 0;            // I403
+  bool execute = false;           // I402 (= control word bit 4, decision 1175)
+  double velocity = 0;            // I404
+  double acceleration = 0;        // I405
+  double deceleration = 0;        // I406
+  double jerk = 0;                // I407
+  double override_percent = 100;  // I230
+  int direction = 0;              // I411
+  bool brake_at_end = false;      // I410
+  uint32_t motion_id = 0;         // I400
+};
+
+class StoberDrive final : public DriveBase, private canopen::NodeObserver {
+ public:
+  StoberDrive(DriveConfig config, const Clock& clock);
+  ~StoberDrive() override;
+
+  std::string endpoint() const override;  // "canopen://udp:239.74.163.2:43113/node/5"
+
+  absl::StatusOr<CommandInfo> Enable() override;
+  absl::StatusOr<CommandInfo> Disable() override;
+  absl::StatusOr<CommandInfo> Home() override;
+  absl::StatusOr<CommandInfo> Move(const MotionCommand& cmd) override;
+  absl::StatusOr<CommandInfo> AcknowledgeFault() override;
+  absl::StatusOr<std::unique_ptr<CyclicStream>> StartCyclic(CyclicMode mode) override;
+
+  // ParameterRef.id = CANopen index << 8 | sub; bound objects in their user value (rounded to
+  // an integer), others as the raw integer of the SDO size. rom: InvalidArgument (decision 1201).
+  absl::StatusOr<int64_t> ReadParameter(const ParameterRef& ref) override;
+  absl::Status WriteParameter(const ParameterRef& ref, int64_t value) override;
+  // StoberMcRequest (commands 0..11 → a command handle), CanOpenSdoRequest (raw SDO).
+  absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) override;
+
+  StoberDriveCounters counters() const;
+
+ protected:
+  absl::Status DoActivate() override;
+  void DoDeactivate() override;
+
+ private:
+  class Stream;
+  friend class Stream;
+
+  // The one open motion-core command handle (§2.3: one status set per axis).
+  struct Tracker {
+    uint64_t id = 0;
+    std::string kind;
+    CommandProgress progress;
+    TimePoint edge_sent{};
+    bool counted = false;               // a TPDO1 produced after the edge arrived
+    std::optional<TimePoint> deadline;  // homing
+  };
+
+  // NodeObserver (receive thread).
+  void OnHeartbeat(uint8_t node, canopen::NmtState state, TimePoint at) noexcept override;
+  void OnBootUp(const canopen::NodeEventInfo& event) noexcept override;
+  void OnEmcy(const canopen::EmcyEvent& event) noexcept override;
+  void OnTpdo(const canopen::TpdoEvent& event) noexcept override;
+  void OnLinkEvent(const canopen::NodeEventInfo& event) noexcept override;
+
+  // Worker: (re)configures the node and supervises deadlines.
+  void RunWorker();
+  absl::Status Configure();
+  void GoOfflineLocked(const std::string& reason, bool node_reset);
+
+  // RPDO images → frames (non-blocking).
+  absl::Status SendRpdoLocked(uint16_t number);
+  TimePoint Deadline() const;
+  Duration CycleTime() const;
+
+  // Status.
+  bool OnlineLocked() const;
+  DriveStatus BuildStatusLocked() const;
+  void PublishLocked();
+  void EvaluateTrackerLocked(TimePoint now);
+  void EndTrackerLocked(CommandState state, const std::string& message);
+  absl::Status RequireOnlineLocked(const std::string& what) const;
+  absl::Status RequireEnabledLocked(const std::string& what) const;
+  std::string Prefix(const std::string& what) const;
+  template <typename Pred>
+  bool WaitLocked(std::unique_lock<std::mutex>& lock, TimePoint deadline, Pred pred);
+
+  // Control word step: sends it and waits until the power state satisfies `pred`.
+  template <typename Pred>
+  absl::Status ControlStepLocked(std::unique_lock<std::mutex>& lock, uint16_t control_word,
+                                 TimePoint deadline, const std::string& what, Pred pred);
+
+  // Motion-core command: set values, edge, acceptance, Execute low (decision 1179/1197).
+  struct McStart {
+    std::string kind;
+    uint8_t command = 0;
+    double position = 0;
+    double velocity = 0;
+    double acceleration = 0;
+    double deceleration = 0;
+    double jerk = 0;
+    std::optional<int> direction;
+    std::optional<uint32_t> motion_id;
+    bool homing = false;
+  };
+  absl::StatusOr<CommandInfo> StartMc(const McStart& start);
+  absl::StatusOr<McStart> PlanMove(const MotionCommand& cmd) const;
+  absl::StatusOr<NativeReply> Sdo(const CanOpenSdoRequest& req);
+
+  const Clock& clock_;
+  const uint8_t node_;
+
+  std::mutex op_mu_;  // one operation at a time
+  mutable std::mutex mu_;
+  std::condition_variable cv_;
+  std::shared_ptr<canopen::CanopenMaster> master_;
+  std::optional<canopen::ObserverId> observer_;
+  std::thread worker_;
+  bool stop_ = false;
+  bool need_config_ = false;
+  uint64_t config_gen_ = 0;  // bumped by every event that invalidates a configuration
+  bool configuring_ = false;
+  bool configured_ = false;
+  bool link_ok_ = true;
+  std::string offline_reason_ = "not configured yet";
+  std::optional<MotionStatus> status_;
+  ActualValues actual_;
+  uint64_t status_seq_ = 0;
+  RpdoImage image_;
+  Duration cycle_ = std::chrono::milliseconds(1);  // A150
+  bool endless_ = false;                           // I00 = 1
+  TimePoint execute_low_at_{};
+  uint16_t emcy_code_ = 0;
+  std::string emcy_text_;
+  std::optional<Tracker> tracker_;
+  bool disabling_ = false;
+  Stream* stream_ = nullptr;  // the open cyclic stream, if any
+  StoberDriveCounters counters_;
+};
+
+}  // namespace drivegw::stober
