@@ -304,6 +304,8 @@ absl::StatusOr<std::optional<Reply>> Pack::Send(const Command& command, Deadline
         name(), ": ", SpecOf(command.opcode).name,
         " not sent: the controller was reset (L853); parameters re-applied, re-enable first"));
   }
+  // cb_mu_ across the word and its absorb: two drives' configuration words reach the shadows in
+  // the order they reached the PACK (decision 1098). It only delays the poll thread's dispatch.
   std::lock_guard cb(cb_mu_);
   return TransactWord(command, deadline);
 }
@@ -318,7 +320,9 @@ absl::StatusOr<std::optional<Reply>> Pack::TransactWord(const Command& command, 
     if (!r.ok()) return r;
   }
   // Decisions 1072/1073/1098: every axis sees every configuration word (controller-wide values,
-  // the `$10` pair); ParameterShadow::Absorb ignores the words of other motors.
+  // the `$10` pair); ParameterShadow::Absorb ignores the words of other motors. cb_mu_ (held
+  // by every caller; recursive): no listener leaves while it is called.
+  std::lock_guard cb(cb_mu_);
   std::vector<PackListener*> listeners;
   {
     std::lock_guard lock(mu_);

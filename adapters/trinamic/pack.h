@@ -142,7 +142,8 @@ class Pack final : private SessionObserver {
   // Reads the jumper bits (`$30`) after a connect on CAN (CT-20).
   void ReadJumpers();
   // One word through the session: `$40` via ChangeBaud (G-40); a sent configuration word is
-  // absorbed by every axis (decision 1098). Needs cb_mu_ for the absorb.
+  // absorbed by every axis (decision 1098). Callers hold cb_mu_ across it (absorb order = wire
+  // order).
   absl::StatusOr<std::optional<Reply>> TransactWord(const Command& command, Deadline deadline);
   // Sends pending (re-)apply words; notifies OnControllerReset after a reset. Needs cb_mu_.
   absl::Status EnsureApplied();
