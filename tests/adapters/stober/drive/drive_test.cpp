@@ -1,0 +1,399 @@
+// StoberDrive against the simulated STOBER axis (sim/stober AxisServer) on the UDP multicast CAN
+// bus (a group/port of its own per process), both on the steady clock. Waits are bounded by the
+// drive's own WaitForStatus; nothing here asserts timing by sleeping.
+#include "adapters/stober/drive.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <functional>
+#include <random>
+#include <thread>
+
+#include "adapters/stober/factory.h"
+#include "adapters/stober/object_map.h"
+#include "sim/stober/server.h"
+
+namespace drivegw::stober {
+namespace {
+
+using namespace std::chrono_literals;
+using ::testing::HasSubstr;
+namespace ss = drivegw::sim::stober;
+
+constexpr char kGroup[] = "239.74.163.97";
+constexpr uint8_t kNode = 9;
+
+uint16_t RandomPort() {
+  static std::mt19937 rng(std::random_device{}() ^ static_cast<unsigned>(::getpid()));
+  return static_cast<uint16_t>(20000 + rng() % 20001);
+}
+
+uint32_t Id(const char* param) {
+  const CanOpenAddress a = *ToCanOpen(P(param));
+  return static_cast<uint32_t>(a.index) << 8 | a.sub_index;
+}
+
+class StoberDriveTest : public ::testing::Test {
+ protected:
+  void Start(ss::AxisServerOptions o = {}) {
+    bus_.kind = CanBusConfig::Kind::kUdpMulticast;
+    bus_.group = kGroup;
+    bus_.port = RandomPort();
+    o.node_id = kNode;
+    o.can = bus_;
+    auto server = ss::AxisServer::Start(o, SteadyClock::Instance());
+    ASSERT_TRUE(server.ok()) << server.status();
+    server_ = std::move(*server);
+    config_.name = "st1";
+    config_.family = kFamilyName;
+    config_.can = bus_;
+    config_.node_id = kNode;
+    config_.axis.min_mm = -200;
+    config_.axis.max_mm = 200;
+    config_.axis.max_velocity_mm_s = 1000;
+    config_.axis.max_acceleration_mm_s2 = 10000;
+    config_.canopen.heartbeat = 50ms;
+    config_.canopen.heartbeat_timeout = 200ms;
+    config_.canopen.sdo_timeout = 300ms;
+    config_.timeouts.homing = 5000ms;
+    auto drive = CreateStoberDrive(config_, SteadyClock::Instance());
+    ASSERT_TRUE(drive.ok()) << drive.status();
+    drive_.reset(static_cast<StoberDrive*>(drive->release()));
+    ASSERT_TRUE(drive_->Activate().ok());
+    const DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
+    ASSERT_NE(s.state, DriveState::kOffline) << s.native.text;
+  }
+  void TearDown() override {
+    if (drive_) drive_->Deactivate();
+    if (server_) server_->Stop();
+  }
+
+  DriveStatus WaitUntil(const std::function<bool(const DriveStatus&)>& pred,
+                        std::chrono::steady_clock::duration timeout = 5s) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    DriveStatus s = drive_->GetStatus();
+    while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
+      s = drive_->WaitForStatus(s.sequence, deadline);
+    }
+    return s;
+  }
+  CommandInfo WaitFinal(uint64_t id) {
+    WaitUntil([&](const DriveStatus&) { return IsFinal(drive_->GetCommand(id)->state); });
+    return *drive_->GetCommand(id);
+  }
+  void Enable() {
+    auto r = drive_->Enable();
+    ASSERT_TRUE(r.ok()) << r.status();
+    ASSERT_EQ(r->state, CommandState::kDone);
+    ASSERT_EQ(drive_->GetStatus().state, DriveState::kEnabled);
+  }
+  void Referenced() {
+    server_->WithAxis([](ss::MotionCore& c) { c.SetReferenced(true); });
+  }
+  CommandInfo Move(const MotionCommand& cmd) {
+    auto r = drive_->Move(cmd);
+    EXPECT_TRUE(r.ok()) << r.status();
+    return r.ok() ? *r : CommandInfo{};
+  }
+  double SimPosition() {
+    double p = 0;
+    server_->WithAxis([&](ss::MotionCore& c) { p = *c.Read(P("I80")); });
+    return p;
+  }
+
+  CanBusConfig bus_;
+  DriveConfig config_;
+  std::unique_ptr<ss::AxisServer> server_;
+  std::unique_ptr<StoberDrive> drive_;
+};
+
+TEST_F(StoberDriveTest, ActivatesDisabledWithPosition) {
+  ss::AxisServerOptions o;
+  o.axis.core.start_operation_enabled = false;
+  Start(o);
+  const DriveStatus s = drive_->GetStatus();
+  EXPECT_EQ(s.state, DriveState::kDisabled) << s.native.text;
+  EXPECT_NEAR(s.position_mm, 0, 1e-9);
+  EXPECT_THAT(drive_->endpoint(), HasSubstr("/node/9"));
+  EXPECT_EQ(drive_->counters().configurations, 1u);
+  // Motion needs Operation enabled.
+  EXPECT_EQ(drive_->Move(MoveAbsolute{10, 100, 1000, 1000}).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+}
+
+TEST_F(StoberDriveTest, EnableMoveAbsoluteAndRelativeEndExactly) {
+  Start();
+  Enable();
+  Referenced();
+  const CommandInfo abs = Move(MoveAbsolute{50, 500, 5000, 5000});
+  EXPECT_NE(abs.state, CommandState::kBusy);
+  EXPECT_EQ(WaitFinal(abs.id).state, CommandState::kDone) << drive_->GetCommand(abs.id)->message;
+  DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.in_target; });
+  EXPECT_NEAR(s.position_mm, 50, 1e-6);
+  EXPECT_EQ(s.state, DriveState::kEnabled);
+  const CommandInfo rel = Move(MoveRelative{-20.125, 400, 4000, 0});
+  EXPECT_EQ(WaitFinal(rel.id).state, CommandState::kDone) << drive_->GetCommand(rel.id)->message;
+  s = WaitUntil([](const DriveStatus& s) { return std::abs(s.position_mm - 29.875) < 1e-6; });
+  EXPECT_NEAR(s.position_mm, 29.875, 1e-6);
+  EXPECT_NEAR(SimPosition(), 29.875, 1e-6);
+  // Same target again: the previous Done must not finish it early (§2.7 forced 0).
+  const CommandInfo again = Move(MoveAbsolute{29.875, 400, 4000, 4000});
+  EXPECT_EQ(WaitFinal(again.id).state, CommandState::kDone);
+}
+
+TEST_F(StoberDriveTest, DisableAndReEnable) {
+  Start();
+  Enable();
+  auto d = drive_->Disable();
+  ASSERT_TRUE(d.ok()) << d.status();
+  EXPECT_EQ(d->state, CommandState::kDone);
+  EXPECT_EQ(drive_->GetStatus().state, DriveState::kDisabled);
+  Enable();
+}
+
+TEST_F(StoberDriveTest, MoveVelocityOnLinearAxisStopsAtTheAxisEnd) {
+  Start();
+  Enable();
+  Referenced();
+  const CommandInfo v = Move(MoveVelocity{-800, 10000, 10000});
+  EXPECT_EQ(WaitFinal(v.id).state, CommandState::kDone) << drive_->GetCommand(v.id)->message;
+  const DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.in_target; });
+  EXPECT_NEAR(s.position_mm, -200, 1e-6);
+}
+
+TEST_F(StoberDriveTest, StopWhileMovingAbortsTheMove) {
+  Start();
+  Enable();
+  Referenced();
+  const CommandInfo m = Move(MoveAbsolute{190, 200, 2000, 2000});
+  WaitUntil([](const DriveStatus& s) { return s.position_mm > 5; });
+  const CommandInfo stop = Move(StopMotion{5000});
+  EXPECT_EQ(WaitFinal(stop.id).state, CommandState::kDone) << drive_->GetCommand(stop.id)->message;
+  EXPECT_EQ(drive_->GetCommand(m.id)->state, CommandState::kAborted);
+  const DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
+  EXPECT_EQ(s.state, DriveState::kEnabled);
+  EXPECT_LT(s.position_mm, 150);
+}
+
+TEST_F(StoberDriveTest, SupersededMoveIsAbortedNewOneDone) {
+  Start();
+  Enable();
+  Referenced();
+  const CommandInfo first = Move(MoveAbsolute{150, 200, 2000, 2000});
+  WaitUntil([](const DriveStatus& s) { return s.position_mm > 5; });
+  const CommandInfo second = Move(MoveAbsolute{-30, 500, 5000, 5000});
+  EXPECT_EQ(drive_->GetCommand(first.id)->state, CommandState::kAborted);
+  EXPECT_EQ(WaitFinal(second.id).state, CommandState::kDone);
+  EXPECT_NEAR(WaitUntil([](const DriveStatus& s) { return s.in_target; }).position_mm, -30, 1e-6);
+}
+
+TEST_F(StoberDriveTest, HomeDefinesReference) {
+  Start();
+  Enable();
+  ASSERT_TRUE(drive_->WriteParameter(ParameterRef{0x609800, false}, 35).ok());  // A586 define home
+  auto h = drive_->Home();
+  ASSERT_TRUE(h.ok()) << h.status();
+  EXPECT_EQ(WaitFinal(h->id).state, CommandState::kDone) << drive_->GetCommand(h->id)->message;
+  const DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.homed; });
+  EXPECT_TRUE(s.homed);
+  EXPECT_EQ(s.state, DriveState::kEnabled);
+}
+
+TEST_F(StoberDriveTest, DenialNamesTheRuleAndIsAcknowledged) {
+  Start();
+  Enable();
+  Referenced();
+  ASSERT_TRUE(drive_->WriteParameter(ParameterRef{Id("I50"), false}, 100).ok());
+  EXPECT_EQ(*drive_->ReadParameter(ParameterRef{Id("I50"), false}), 100);
+  const CommandInfo m = Move(MoveAbsolute{150, 200, 2000, 2000});
+  const CommandInfo end = WaitFinal(m.id);
+  EXPECT_EQ(end.state, CommandState::kError);
+  EXPECT_THAT(end.message, HasSubstr("software limits I50..I51"));
+  DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kFault; });
+  EXPECT_EQ(s.state, DriveState::kFault);
+  EXPECT_THAT(s.fault.text, HasSubstr("I50..I51"));
+  EXPECT_EQ(drive_->Move(MoveAbsolute{10, 200, 2000, 2000}).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+  auto ack = drive_->AcknowledgeFault();
+  ASSERT_TRUE(ack.ok()) << ack.status();
+  EXPECT_EQ(ack->state, CommandState::kDone);
+  s = drive_->GetStatus();
+  EXPECT_EQ(s.state, DriveState::kEnabled);
+  EXPECT_EQ(s.fault.code, 0u);
+  const CommandInfo ok = Move(MoveAbsolute{80, 500, 5000, 5000});
+  EXPECT_EQ(WaitFinal(ok.id).state, CommandState::kDone);
+}
+
+TEST_F(StoberDriveTest, LimitSwitchFaultThenAcknowledge) {
+  Start();
+  Enable();
+  Referenced();
+  const CommandInfo m = Move(MoveAbsolute{190, 100, 1000, 1000});
+  WaitUntil([](const DriveStatus& s) { return s.position_mm > 2; });
+  server_->ForceLimitSwitch(true, true);
+  const CommandInfo end = WaitFinal(m.id);
+  EXPECT_EQ(end.state, CommandState::kError);
+  EXPECT_THAT(end.message, HasSubstr("limit switch fault"));
+  DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kFault; });
+  ASSERT_EQ(s.state, DriveState::kFault);
+  server_->ForceLimitSwitch(true, std::nullopt);
+  WaitUntil([](const DriveStatus& s) { return !s.motion_active; });
+  auto ack = drive_->AcknowledgeFault();
+  ASSERT_TRUE(ack.ok()) << ack.status();
+  EXPECT_EQ(drive_->GetStatus().state, DriveState::kEnabled);
+}
+
+TEST_F(StoberDriveTest, FollowingErrorIsCia402FaultWithEmcyText) {
+  Start();
+  Enable();
+  Referenced();
+  const CommandInfo m = Move(MoveAbsolute{190, 100, 1000, 1000});
+  server_->InjectFollowingError();
+  EXPECT_EQ(WaitFinal(m.id).state, CommandState::kError);
+  DriveStatus s = WaitUntil([](const DriveStatus& s) {
+    return s.state == DriveState::kFault && !s.fault.text.empty() && s.fault.code == 0x8611;
+  });
+  EXPECT_EQ(s.fault.code, 0x8611u);
+  EXPECT_EQ(drive_->Enable().status().code(), absl::StatusCode::kFailedPrecondition);
+  auto ack = drive_->AcknowledgeFault();
+  ASSERT_TRUE(ack.ok()) << ack.status();
+  EXPECT_EQ(drive_->GetStatus().state, DriveState::kDisabled);
+  Enable();
+}
+
+TEST_F(StoberDriveTest, HeartbeatLossGoesOfflineAndRecovers) {
+  Start();
+  Enable();
+  server_->SetHeartbeatLoss(true);
+  DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kOffline; });
+  ASSERT_EQ(s.state, DriveState::kOffline);
+  EXPECT_THAT(s.native.text, HasSubstr("heartbeat"));
+  EXPECT_EQ(drive_->Move(MoveAbsolute{10, 100, 1000, 1000}).status().code(),
+            absl::StatusCode::kUnavailable);
+  server_->SetHeartbeatLoss(false);
+  s = WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
+  EXPECT_EQ(s.state, DriveState::kEnabled);
+  EXPECT_GE(drive_->counters().configurations, 2u);
+  EXPECT_EQ(drive_->counters().heartbeat_losses, 1u);
+}
+
+TEST_F(StoberDriveTest, RebootMidMoveFailsTheMoveAndNeverResumes) {
+  Start();
+  Enable();
+  Referenced();
+  const CommandInfo m = Move(MoveAbsolute{190, 100, 1000, 1000});
+  WaitUntil([](const DriveStatus& s) { return s.position_mm > 2; });
+  server_->Reboot();
+  const CommandInfo end = WaitFinal(m.id);
+  EXPECT_EQ(end.state, CommandState::kError);
+  EXPECT_THAT(end.message, HasSubstr("node rebooted"));
+  DriveStatus s = WaitUntil([&](const DriveStatus& s) {
+    return s.state != DriveState::kOffline && drive_->counters().configurations >= 2;
+  });
+  EXPECT_EQ(s.state, DriveState::kDisabled) << s.native.text;
+  EXPECT_EQ(drive_->counters().bootups, 1u);
+  // Enabled again the axis stands still: no stale Execute edge is replayed.
+  Enable();
+  const double p0 = drive_->GetStatus().position_mm;
+  auto probe = drive_->ReadParameter(ParameterRef{Id("I89"), false});
+  ASSERT_TRUE(probe.ok()) << probe.status();
+  EXPECT_EQ(*probe, 2);
+  EXPECT_NEAR(SimPosition(), p0, 1e-9);
+}
+
+TEST_F(StoberDriveTest, NativeMoveAdditiveAndHalt) {
+  Start();
+  Enable();
+  Referenced();
+  EXPECT_EQ(WaitFinal(Move(MoveAbsolute{20, 500, 5000, 5000}).id).state, CommandState::kDone);
+  StoberMcRequest add;
+  add.command = 3;
+  add.position_mm = 10;
+  add.velocity_mm_s = 300;
+  add.acceleration_mm_s2 = 3000;
+  add.deceleration_mm_s2 = 3000;
+  add.jerk_mm_s3 = 30000;
+  auto r = drive_->SendNative(add);
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_NE(r->command_id, 0u);
+  EXPECT_EQ(drive_->GetCommand(r->command_id)->kind, "MC_MoveAdditive");
+  EXPECT_EQ(WaitFinal(r->command_id).state, CommandState::kDone);
+  EXPECT_NEAR(WaitUntil([](const DriveStatus& s) { return s.in_target; }).position_mm, 30, 1e-6);
+
+  const CommandInfo far = Move(MoveAbsolute{180, 100, 1000, 1000});
+  WaitUntil([](const DriveStatus& s) { return s.position_mm > 32; });
+  StoberMcRequest halt;
+  halt.command = 11;
+  halt.deceleration_mm_s2 = 2000;
+  halt.jerk_mm_s3 = 20000;
+  auto h = drive_->SendNative(halt);
+  ASSERT_TRUE(h.ok()) << h.status();
+  EXPECT_EQ(WaitFinal(h->command_id).state, CommandState::kDone);
+  EXPECT_EQ(drive_->GetCommand(far.id)->state, CommandState::kAborted);
+  EXPECT_LT(drive_->GetStatus().position_mm, 100);
+
+  StoberMcRequest bad;
+  bad.command = 12;
+  EXPECT_EQ(drive_->SendNative(bad).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+TEST_F(StoberDriveTest, SdoReadWriteWithAbortNames) {
+  Start();
+  CanOpenSdoRequest read;
+  read.index = 0x1000;
+  auto r = drive_->SendNative(read);
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->data, (std::vector<uint8_t>{0x92, 0x01, 0x02, 0x00}));
+  CanOpenSdoRequest missing;
+  missing.index = 0x5FFF;
+  auto m = drive_->SendNative(missing);
+  ASSERT_FALSE(m.ok());
+  EXPECT_THAT(std::string(m.status().message()), HasSubstr("object does not exist"));
+  CanOpenSdoRequest ro;
+  ro.index = 0x6041;
+  ro.write = true;
+  ro.data = {0, 0};
+  auto w = drive_->SendNative(ro);
+  ASSERT_FALSE(w.ok());
+  EXPECT_THAT(std::string(w.status().message()), HasSubstr("read only"));
+  // Parameters: bound objects in user units, ROM refused, unknown ones NotFound-ish.
+  ASSERT_TRUE(drive_->WriteParameter(ParameterRef{Id("I10"), false}, 750).ok());
+  EXPECT_EQ(*drive_->ReadParameter(ParameterRef{Id("I10"), false}), 750);
+  EXPECT_EQ(drive_->WriteParameter(ParameterRef{Id("I10"), true}, 1).code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_FALSE(drive_->ReadParameter(ParameterRef{0x5FFF00, false}).ok());
+}
+
+TEST(StoberFactory, ChecksNameTheField) {
+  DriveConfig c;
+  c.name = "s";
+  c.family = kFamilyName;
+  auto no_can = CreateStoberDrive(c, SteadyClock::Instance());
+  EXPECT_THAT(std::string(no_can.status().message()), HasSubstr("'s'.can"));
+  c.can = CanBusConfig{};
+  EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
+              HasSubstr("node_id"));
+  c.node_id = 128;
+  EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
+              HasSubstr("128 is not a CANopen node ID 1..127"));
+  c.node_id = 5;
+  c.canopen.heartbeat_timeout = c.canopen.heartbeat;
+  EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
+              HasSubstr("canopen.heartbeat_timeout"));
+  c.canopen.heartbeat_timeout = 350ms;
+  c.canopen.sync_period = 0ms;
+  EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
+              HasSubstr("canopen.sync_period"));
+  c.canopen.sync_period = 2ms;
+  c.axis.max_mm = 3e6;
+  EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
+              HasSubstr("axis.max_mm"));
+  c.axis.max_mm = 100;
+  EXPECT_TRUE(CreateStoberDrive(c, SteadyClock::Instance()).ok());
+}
+
+}  // namespace
+}  // namespace drivegw::stober
