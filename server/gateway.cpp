@@ -15,12 +15,14 @@
 #include "adapters/core/status.h"
 #include "adapters/linmot/devicenet/factory.h"
 #include "adapters/linmot/linudp/factory.h"
+#include "adapters/stober/factory.h"
 #include "adapters/trinamic/factory.h"
 #include "server/grpc/drive_service_grpc.h"
 #include "server/grpc/worker_pool.h"
 #include "server/rest/server.h"
 #include "sim/linmot/server.h"
 #include "sim/linmot_devicenet/server.h"
+#include "sim/stober/server.h"
 #include "sim/trinamic/server.h"
 #include "storage/audit_log.h"
 #include "storage/config_repo.h"
@@ -39,6 +41,7 @@ DriveRegistry MakeRegistry() {
   r.Register(linmot::linudp::kFamilyName, linmot::linudp::CreateLinMotUdpDrive);
   r.Register(linmot::devicenet::kFamilyName, linmot::devicenet::CreateLinMotDnDrive);
   r.Register(trinamic::kFamilyName, trinamic::CreateTrinamicDrive);
+  r.Register(stober::kFamilyName, stober::CreateStoberDrive);
   return r;
 }
 
@@ -62,6 +65,39 @@ absl::StatusOr<std::unique_ptr<sim::trinamic::TrinamicServer>> StartTrinamicDemo
   return server;
 }
 
+// Demo: the user-space bus of the STOBER axis; never the DeviceNet demo bus (decision 407).
+absl::StatusOr<CanBusConfig> DemoCanOpenBus(const GatewayOptions& options) {
+  uint32_t port = options.demo_canopen_port;
+  if (port == 0) port = options.demo_can_port + 1u;
+  if (port > 65535 || port == options.demo_can_port) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "demo_canopen_port: ", port, " must be 1..65535 and differ from demo_can_port ",
+        options.demo_can_port, " (CANopen and DeviceNet never share a bus, decision 407)"));
+  }
+  CanBusConfig bus;
+  bus.kind = CanBusConfig::Kind::kUdpMulticast;
+  bus.group = options.demo_can_group;
+  bus.port = static_cast<uint16_t>(port);
+  return bus;
+}
+
+// Demo: one simulated STOBER axis as CANopen node `drive.node_id` on `drive.can`, with the
+// simulator's power-on catalogue (F-LIN: referenced, I50/I51 ±10000 u) that the drive's axis
+// limits mirror (decision 409). Its heartbeat starts when the drive writes 1017h.
+absl::StatusOr<std::unique_ptr<sim::stober::AxisServer>> StartStoberDemo(const DriveConfig& drive,
+                                                                         const Clock& clock) {
+  sim::stober::AxisServerOptions so;
+  so.node_id = *drive.node_id;
+  so.can = *drive.can;
+  auto server = sim::stober::AxisServer::Start(so, clock);
+  if (!server.ok()) {
+    return absl::Status(server.status().code(),
+                        absl::StrCat("demo drive '", drive.name,
+                                     "' simulator: ", server.status().message()));
+  }
+  return server;
+}
+
 }  // namespace
 
 struct Gateway::Impl {
@@ -71,6 +107,7 @@ struct Gateway::Impl {
   std::map<std::string, std::unique_ptr<sim::linmot::LinMotServer>> sims;
   std::map<std::string, std::unique_ptr<sim::linmot_devicenet::LinMotDnServer>> dn_sims;
   std::unique_ptr<sim::trinamic::TrinamicServer> trinamic_sim;
+  std::unique_ptr<sim::stober::AxisServer> stober_sim;
   std::vector<std::shared_ptr<Drive>> drives;
   std::unique_ptr<DriveServiceCore> core;
   std::unique_ptr<WorkerPool> pool;
@@ -113,6 +150,8 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   // Demo mode: embedded simulated drives on loopback, and drive configs pointing at them.
   std::vector<DriveConfig> drive_configs = cfg.drives;
   if (cfg.demo) {
+    // Checked before any simulator starts.
+    DGW_ASSIGN_OR_RETURN(const CanBusConfig canopen_bus, DemoCanOpenBus(options));
     drive_configs = config::DemoDrives(options.demo_first_port == 0 ? 49360 : options.demo_first_port);
     for (size_t i = 0; i < drive_configs.size(); ++i) {
       DriveConfig& dc = drive_configs[i];
@@ -169,6 +208,11 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
     for (DriveConfig& feeder : config::DemoTrinamicDrives(pty_path)) {
       drive_configs.push_back(std::move(feeder));
     }
+
+    // One simulated STOBER axis, CANopen node 3, on a user-space bus of its own (issue 5).
+    DriveConfig s1 = config::DemoStoberDrive(canopen_bus);
+    DGW_ASSIGN_OR_RETURN(impl->stober_sim, StartStoberDemo(s1, clock));
+    drive_configs.push_back(std::move(s1));
   }
 
   // One configuration snapshot per start, so the audit trail knows what was running.
@@ -239,6 +283,8 @@ sim::linmot_devicenet::LinMotDnServer* Gateway::demo_devicenet_simulator(const s
 
 sim::trinamic::TrinamicServer* Gateway::demo_trinamic_simulator() const { return impl_->trinamic_sim.get(); }
 
+sim::stober::AxisServer* Gateway::demo_stober_simulator() const { return impl_->stober_sim.get(); }
+
 void Gateway::Stop() {
   if (!impl_ || impl_->stopped) return;
   impl_->stopped = true;
@@ -250,6 +296,7 @@ void Gateway::Stop() {
   for (auto& [name, sim] : impl_->sims) sim->Stop();
   for (auto& [name, sim] : impl_->dn_sims) sim->Stop();
   if (impl_->trinamic_sim) impl_->trinamic_sim->Stop();
+  if (impl_->stober_sim) impl_->stober_sim->Stop();
   log::Info("gateway_stopped");
 }
 

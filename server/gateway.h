@@ -21,6 +21,9 @@ class LinMotDnServer;
 namespace drivegw::sim::trinamic {
 class TrinamicServer;
 }
+namespace drivegw::sim::stober {
+class AxisServer;
+}
 
 namespace drivegw::server {
 
@@ -35,6 +38,10 @@ struct GatewayOptions {
   // never share a bus.
   std::string demo_can_group = "239.74.163.2";
   uint16_t demo_can_port = 43113;
+  // Demo mode: the user-space CAN bus (same group) of the simulated STOBER axis, a bus of its
+  // own because CANopen and DeviceNet never share one (decisions 407, 409). 0 = demo_can_port + 1,
+  // so a test that picks its own DeviceNet bus also gets its own CANopen bus.
+  uint16_t demo_canopen_port = 0;
   std::string static_dir;  // web assets served at / (empty: none)
 };
 
@@ -56,6 +63,9 @@ class Gateway {
   // The simulated SIXpack (address 1) behind the demo drives feeder-x and feeder-y, on a pty
   // linked at `<data_dir>/trinamic-demo.pty` (decision 406); nullptr outside demo mode.
   sim::trinamic::TrinamicServer* demo_trinamic_simulator() const;
+  // The simulated STOBER axis (CANopen node 3) behind the demo drive s1 on the demo CANopen bus
+  // (decision 409); nullptr outside demo mode.
+  sim::stober::AxisServer* demo_stober_simulator() const;
 
   // Stops servers, drives and simulators; idempotent. The destructor calls it.
   void Stop();

@@ -15,7 +15,8 @@ void Usage() {
                "usage: drivegw [--config FILE]\n"
                "  Without --config (or with a config that has no `drives:`), drivegw starts its\n"
                "  embedded demo: simulated LinMot drives on loopback UDP, a LinMot DeviceNet\n"
-               "  drive on the user-space CAN bus and two axes of a Trinamic SIXpack on a pty.\n"
+               "  drive on the user-space CAN bus, two axes of a Trinamic SIXpack on a pty and\n"
+               "  a STOBER axis (CANopen node 3) on a second user-space CAN bus.\n"
                "  See docs/config.md.\n");
 }
 

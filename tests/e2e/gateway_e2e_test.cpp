@@ -1,6 +1,6 @@
 // End to end over real sockets: the demo gateway (embedded simulated LinMot drives on loopback
-// UDP, a DeviceNet drive on the user-space CAN bus, a Trinamic SIXpack on a pty, SQLite file)
-// driven through gRPC and through REST.
+// UDP, a DeviceNet drive on the user-space CAN bus, a Trinamic SIXpack on a pty, a STOBER axis
+// on a CANopen bus of its own, SQLite file) driven through gRPC and through REST.
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
@@ -16,7 +16,10 @@
 #include "drivegw/v1/drive.grpc.pb.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
+#include "adapters/stober/param_id.h"
 #include "server/gateway.h"
+#include "sim/stober/motion_core.h"
+#include "sim/stober/server.h"
 #include "storage/audit_log.h"
 #include "storage/db.h"
 #include "tests/e2e/http_client.h"
@@ -51,6 +54,7 @@ class GatewayE2eTest : public ::testing::Test {
     o.demo_master_port = 0;  // ephemeral master port; the simulators answer any source port
     // A CAN bus of this test's own: parallel ctest runs must not share one.
     o.demo_can_port = can_port_;
+    o.demo_canopen_port = static_cast<uint16_t>(can_port_ + 1);  // the STOBER axis's own bus
     return o;
   }
   void TearDown() override {
@@ -88,16 +92,18 @@ TEST_F(GatewayE2eTest, ListDrives_Demo_ListsEveryFamilyOnline) {
   grpc::ClientContext ctx;
   v1::ListDrivesResponse resp;
   ASSERT_TRUE(stub_->ListDrives(&ctx, v1::ListDrivesRequest(), &resp).ok());
-  ASSERT_EQ(resp.drives_size(), 5);
+  ASSERT_EQ(resp.drives_size(), 6);
   EXPECT_EQ(resp.drives(0).name(), "drives/x1");
   EXPECT_EQ(resp.drives(1).name(), "drives/x2");
   EXPECT_EQ(resp.drives(2).name(), "drives/d1");
   EXPECT_EQ(resp.drives(3).name(), "drives/feeder-x");
   EXPECT_EQ(resp.drives(4).name(), "drives/feeder-y");
+  EXPECT_EQ(resp.drives(5).name(), "drives/s1");
   EXPECT_EQ(resp.drives(0).family(), "linmot");
   EXPECT_EQ(resp.drives(2).family(), "linmot-devicenet");
   EXPECT_EQ(resp.drives(3).family(), "trinamic");
   EXPECT_EQ(resp.drives(4).family(), "trinamic");
+  EXPECT_EQ(resp.drives(5).family(), "stober");
   EXPECT_NE(resp.drives(0).status().state(), v1::OFFLINE);
 }
 
@@ -320,6 +326,50 @@ TEST_F(GatewayE2eTest, Demo_TrinamicPtyLink_StaleReplacedOtherFileRefused) {
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.status().message().find("feeder-x"), std::string::npos) << refused.status();
   EXPECT_NE(refused.status().message().find(link.string()), std::string::npos) << refused.status();
+}
+
+TEST_F(GatewayE2eTest, Rest_StoberDemoAxis_EnablesAndMovesTo25Mm) {
+  // CANopen node 3 on the demo's CANopen bus (issue 5; decision 409): 1 u = 1 mm.
+  ASSERT_NE(gw_->demo_stober_simulator(), nullptr);
+  EXPECT_EQ(gw_->demo_stober_simulator()->node_id(), 3);
+  EXPECT_EQ(gw_->demo_stober_simulator()->bus_name(),
+            "udp:239.74.163.2:" + std::to_string(can_port_ + 1));
+  const v1::Drive online = WaitFor("drives/s1", [](const v1::Drive& d) {
+    return d.status().state() != v1::OFFLINE && d.status().state() != v1::DRIVE_STATE_UNSPECIFIED;
+  }, std::chrono::seconds(15));
+  ASSERT_NE(online.status().state(), v1::OFFLINE) << online.ShortDebugString();
+  auto en = HttpRequest(http(), "POST", "/v1/drives/s1:enable", "");
+  ASSERT_EQ(en.status, 200) << en.body;
+  EXPECT_NE(en.body.find("\"DONE\""), std::string::npos) << en.body;
+  // 100 mm/s and 1000 mm/s² (limits 1000 mm/s, 10000 mm/s²): about 0.35 s.
+  auto mv = HttpRequest(http(), "POST", "/v1/drives/s1:moveAbsolute",
+                        R"({"position_mm": 25, "velocity_mm_s": 100, "acceleration_mm_s2": 1000})");
+  ASSERT_EQ(mv.status, 200) << mv.body;
+  EXPECT_NE(mv.body.find("MoveAbsolute"), std::string::npos) << mv.body;
+  const v1::Drive d = WaitFor("drives/s1", [](const v1::Drive& d) {
+    return d.status().last_command().kind() == "MoveAbsolute" && d.status().last_command().state() == v1::DONE;
+  }, std::chrono::seconds(15));
+  EXPECT_EQ(d.status().last_command().state(), v1::DONE) << d.ShortDebugString();
+  // Positions travel in 0.001 u (decision 1172).
+  EXPECT_NEAR(d.status().position_mm(), 25.0, 0.001) << d.ShortDebugString();
+  // The simulated axis stands at 25 u, the target the drive sent.
+  double actual = 0;
+  gw_->demo_stober_simulator()->WithAxis([&](sim::stober::MotionCore& core) {
+    auto position = core.Read(drivegw::stober::P("I80"));
+    ASSERT_TRUE(position.ok()) << position.status();
+    actual = *position;
+  });
+  EXPECT_NEAR(actual, 25.0, 0.001);
+}
+
+TEST_F(GatewayE2eTest, Demo_CanOpenBusEqualToDeviceNetBus_Refused) {
+  gw_.reset();
+  GatewayOptions o = Options();
+  o.demo_canopen_port = o.demo_can_port;
+  auto refused = Gateway::Start(o);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("demo_canopen_port"), std::string::npos) << refused.status();
+  EXPECT_NE(refused.status().message().find("decision 407"), std::string::npos) << refused.status();
 }
 
 TEST_F(GatewayE2eTest, Rest_BadInput_ClearErrorsAndGatewayStaysUp) {
