@@ -10,6 +10,7 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <thread>
 
 #include "adapters/linmot/devicenet/codec.h"
 #include "adapters/linmot/devicenet/commands.h"
@@ -229,6 +230,13 @@ TEST_F(DeviceNetContract, TC_02_SecondMasterRefusedUntilRelease) {
   EXPECT_EQ(answer->data[2], 0x0C);
   EXPECT_EQ(answer->data[3], 0x01);
   EXPECT_NE(drive_->GetStatus().state, DriveState::kOffline);
+  // The gateway's session sees the foreign allocation on its own socket, independently of the
+  // answer the test received: wait for it to be counted instead of racing it.
+  const auto counted_by = std::chrono::steady_clock::now() + kWait;
+  while (drive_->exchange_counters()->foreign_master < 1u &&
+         std::chrono::steady_clock::now() < counted_by) {
+    std::this_thread::sleep_for(5ms);
+  }
   EXPECT_GE(drive_->exchange_counters()->foreign_master, 1u);
   drive_->Deactivate();  // Release
   answer.reset();
