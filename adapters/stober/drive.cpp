@@ -235,7 +235,7 @@ absl::Status StoberDrive::Configure() {
     status.flags = *flags;
   }
   DGW_RETURN_IF_ERROR(step(m->SetHeartbeatConsumer(node_, c.heartbeat_timeout), "heartbeat"));
-  uint64_t seq = 0;
+  uint64_t beats = 0;
   {
     std::lock_guard lock(mu_);
     image_ = image;
@@ -245,15 +245,21 @@ absl::Status StoberDrive::Configure() {
         std::chrono::duration<double, std::milli>(std::max(cycle_ms, 0.125)));
     endless_ = travel != 0;
     execute_low_at_ = clock_.Now();
-    seq = status_seq_;
+    beats = heartbeats_;
   }
   DGW_RETURN_IF_ERROR(step(m->SendNmt(co::NmtCommand::kStart, node_), "NMT start"));
-  // A heartbeat sent before the start was handled must not look like "left OPERATIONAL": wait
-  // for the node to report OPERATIONAL or for its first TPDO (PDOs only flow in OPERATIONAL).
+  // Online only with a heartbeat reporting OPERATIONAL after the start (decision 1194): the
+  // master's supervision starts with the first heartbeat, and one sent before the start was
+  // handled must not look like "left OPERATIONAL".
   std::unique_lock lock(mu_);
-  WaitLocked(lock, deadline, [&] {
-    return m->node_state(node_) == co::NmtState::kOperational || status_seq_ != seq;
-  });
+  const TimePoint hb_deadline = clock_.Now() + c.heartbeat_timeout;
+  if (!WaitLocked(lock, hb_deadline, [&] {
+        return heartbeats_ > beats && heartbeat_state_ == co::NmtState::kOperational;
+      })) {
+    return absl::UnavailableError(absl::StrCat(prefix, "no OPERATIONAL heartbeat within ",
+                                               c.heartbeat_timeout.count(),
+                                               " ms (canopen.heartbeat_timeout)"));
+  }
   return absl::OkStatus();
 }
 
@@ -261,6 +267,9 @@ absl::Status StoberDrive::Configure() {
 
 void StoberDrive::OnHeartbeat(uint8_t, co::NmtState state, TimePoint) noexcept {
   std::lock_guard lock(mu_);
+  ++heartbeats_;
+  heartbeat_state_ = state;
+  cv_.notify_all();
   if (configured_ && !configuring_ && state != co::NmtState::kOperational) {
     // 1029h or another master moved the node: PDOs stopped, configure it again.
     configured_ = false;
@@ -382,8 +391,10 @@ DriveStatus StoberDrive::BuildStatusLocked() const {
   if (s.cause != 0) absl::StrAppend(&st.native.text, ", I90 ", s.cause, ": ", CauseText(s.cause));
   st.homed = (s.flags & status_bit::kInReference) != 0;
   st.in_target = (s.flags & status_bit::kInWindow) != 0;
-  st.motion_active = IsMotionPlcState(s.plc_state) || s.plc_state == kPlcHoming ||
-                     s.command_state() != 0 || p == PowerState::kQuickStopActive;
+  st.motion_active =
+      IsMotionPlcState(s.plc_state) || s.plc_state == kPlcHoming || s.command_state() != 0 ||
+      p == PowerState::kQuickStopActive ||
+      (p == PowerState::kOperationEnabled && (s.flags & status_bit::kStandstill) == 0);
   if (s.flags & status_bit::kPositiveLimitSwitch) {
     st.warnings.push_back("positive limit switch active (I441)");
   }

@@ -163,6 +163,8 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   std::optional<MotionStatus> status_;
   ActualValues actual_;
   uint64_t status_seq_ = 0;
+  uint64_t heartbeats_ = 0;  // heartbeats seen
+  canopen::NmtState heartbeat_state_ = canopen::NmtState::kBootUp;
   RpdoImage image_;
   Duration cycle_ = std::chrono::milliseconds(1);  // A150
   bool endless_ = false;                           // I00 = 1

@@ -63,7 +63,8 @@ class StoberDriveTest : public ::testing::Test {
     ASSERT_TRUE(drive.ok()) << drive.status();
     drive_.reset(static_cast<StoberDrive*>(drive->release()));
     ASSERT_TRUE(drive_->Activate().ok());
-    const DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
+    const DriveStatus s =
+        WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
     ASSERT_NE(s.state, DriveState::kOffline) << s.native.text;
   }
   void TearDown() override {
@@ -89,6 +90,12 @@ class StoberDriveTest : public ::testing::Test {
     ASSERT_TRUE(r.ok()) << r.status();
     ASSERT_EQ(r->state, CommandState::kDone);
     ASSERT_EQ(drive_->GetStatus().state, DriveState::kEnabled);
+  }
+  // The position TPDO (inhibit 10 ms, decision 1175) may trail the status TPDO's Done.
+  DriveStatus AtRest(double target) {
+    return WaitUntil([&](const DriveStatus& s) {
+      return std::abs(s.position_mm - target) < 1e-6 && s.state == DriveState::kEnabled;
+    });
   }
   void Referenced() {
     server_->WithAxis([](ss::MotionCore& c) { c.SetReferenced(true); });
@@ -131,8 +138,9 @@ TEST_F(StoberDriveTest, EnableMoveAbsoluteAndRelativeEndExactly) {
   const CommandInfo abs = Move(MoveAbsolute{50, 500, 5000, 5000});
   EXPECT_NE(abs.state, CommandState::kBusy);
   EXPECT_EQ(WaitFinal(abs.id).state, CommandState::kDone) << drive_->GetCommand(abs.id)->message;
-  DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.in_target; });
+  DriveStatus s = AtRest(50);
   EXPECT_NEAR(s.position_mm, 50, 1e-6);
+  EXPECT_TRUE(s.in_target);
   EXPECT_EQ(s.state, DriveState::kEnabled);
   const CommandInfo rel = Move(MoveRelative{-20.125, 400, 4000, 0});
   EXPECT_EQ(WaitFinal(rel.id).state, CommandState::kDone) << drive_->GetCommand(rel.id)->message;
@@ -160,8 +168,7 @@ TEST_F(StoberDriveTest, MoveVelocityOnLinearAxisStopsAtTheAxisEnd) {
   Referenced();
   const CommandInfo v = Move(MoveVelocity{-800, 10000, 10000});
   EXPECT_EQ(WaitFinal(v.id).state, CommandState::kDone) << drive_->GetCommand(v.id)->message;
-  const DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.in_target; });
-  EXPECT_NEAR(s.position_mm, -200, 1e-6);
+  EXPECT_NEAR(AtRest(-200).position_mm, -200, 1e-6);
 }
 
 TEST_F(StoberDriveTest, StopWhileMovingAbortsTheMove) {
@@ -173,7 +180,8 @@ TEST_F(StoberDriveTest, StopWhileMovingAbortsTheMove) {
   const CommandInfo stop = Move(StopMotion{5000});
   EXPECT_EQ(WaitFinal(stop.id).state, CommandState::kDone) << drive_->GetCommand(stop.id)->message;
   EXPECT_EQ(drive_->GetCommand(m.id)->state, CommandState::kAborted);
-  const DriveStatus s = WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
+  const DriveStatus s =
+      WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
   EXPECT_EQ(s.state, DriveState::kEnabled);
   EXPECT_LT(s.position_mm, 150);
 }
@@ -187,7 +195,7 @@ TEST_F(StoberDriveTest, SupersededMoveIsAbortedNewOneDone) {
   const CommandInfo second = Move(MoveAbsolute{-30, 500, 5000, 5000});
   EXPECT_EQ(drive_->GetCommand(first.id)->state, CommandState::kAborted);
   EXPECT_EQ(WaitFinal(second.id).state, CommandState::kDone);
-  EXPECT_NEAR(WaitUntil([](const DriveStatus& s) { return s.in_target; }).position_mm, -30, 1e-6);
+  EXPECT_NEAR(AtRest(-30).position_mm, -30, 1e-6);
 }
 
 TEST_F(StoberDriveTest, HomeDefinesReference) {
@@ -321,7 +329,7 @@ TEST_F(StoberDriveTest, NativeMoveAdditiveAndHalt) {
   ASSERT_NE(r->command_id, 0u);
   EXPECT_EQ(drive_->GetCommand(r->command_id)->kind, "MC_MoveAdditive");
   EXPECT_EQ(WaitFinal(r->command_id).state, CommandState::kDone);
-  EXPECT_NEAR(WaitUntil([](const DriveStatus& s) { return s.in_target; }).position_mm, 30, 1e-6);
+  EXPECT_NEAR(AtRest(30).position_mm, 30, 1e-6);
 
   const CommandInfo far = Move(MoveAbsolute{180, 100, 1000, 1000});
   WaitUntil([](const DriveStatus& s) { return s.position_mm > 32; });
