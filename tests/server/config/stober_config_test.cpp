@@ -103,6 +103,28 @@ TEST(StoberConfigTest, SocketCan_Accepted) {
   EXPECT_EQ(cfg->drives[0].can->trace_file, "/tmp/s1.log");
 }
 
+TEST(StoberConfigTest, DocsExample_TwoNodesOnOneBus) {
+  // docs/config.md "family: stober".
+  auto cfg = ParseConfig(R"(
+drives:
+  - name: s1
+    family: stober
+    can: {udp: {group: 239.74.163.2, port: 43114}}   # socketcan: {interface: can1} on hardware
+    node_id: 3
+    canopen: {heartbeat_ms: 100, heartbeat_timeout_ms: 350, sync_period_ms: 2, sdo_timeout_ms: 1000}
+    axis: {min_mm: -500, max_mm: 500, max_velocity_mm_s: 1000, max_acceleration_mm_s2: 10000}
+  - name: s2
+    family: stober
+    can: {udp: {group: 239.74.163.2, port: 43114}}   # the same bus: another node ID
+    node_id: 4
+    axis: {kind: rotary, min_mm: 0, max_mm: 360, max_velocity_mm_s: 720, max_acceleration_mm_s2: 7200}
+)");
+  ASSERT_TRUE(cfg.ok()) << cfg.status();
+  ASSERT_EQ(cfg->drives.size(), 2u);
+  EXPECT_EQ(cfg->drives[1].node_id, std::optional<uint8_t>(4));
+  EXPECT_EQ(cfg->drives[1].axis.kind, AxisKind::kRotary);
+}
+
 // ---- node_id ----
 
 TEST(StoberConfigTest, NodeId_RangeAndType) {
