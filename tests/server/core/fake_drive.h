@@ -1,9 +1,13 @@
 // A Drive test double for the service core: fixed answers, and a record of what the core handed
-// it (native requests, parameter ids, coordinated moves with their group). Families are plain
-// strings; `interpolates` false keeps Drive::MoveCoordinated's default (UNIMPLEMENTED), as every
-// family without a coordinated move does.
+// it (native requests, parameter ids, coordinated moves with their group, cyclic set points).
+// Families are plain strings; `interpolates` false keeps Drive::MoveCoordinated's default
+// (UNIMPLEMENTED), as every family without a coordinated move does; likewise StartCyclic keeps the
+// default until SetCyclic(true).
 #pragma once
 
+#include <algorithm>
+#include <chrono>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -13,6 +17,69 @@
 #include "adapters/core/drive.h"
 
 namespace drivegw::server::test_support {
+
+// What the fake cyclic stream saw; shared with the stream, so it outlives it.
+struct CyclicRecord {
+  CyclicMode mode = CyclicMode::kPosition;
+  std::vector<CyclicSetpoint> setpoints;
+  int closes = 0;               // Close() calls
+  bool destroyed_open = false;  // destroyed without Close (the seam closes it then)
+};
+
+// Pushes are recorded; stats report every set point as received, `late` of them as late (not
+// sent), and `missing` cycles, on a 2 ms cycle. Push number `fail_at` (0-based) fails as a drive
+// fault would.
+class FakeCyclicStream final : public Drive::CyclicStream {
+ public:
+  struct Options {
+    uint64_t late = 0;
+    uint64_t missing = 0;
+    std::optional<size_t> fail_at;
+  };
+  FakeCyclicStream(std::shared_ptr<std::mutex> mu, std::shared_ptr<CyclicRecord> record,
+                   Options options, CyclicMode mode)
+      : mu_(std::move(mu)), record_(std::move(record)), options_(options) {
+    info_.id = 7;
+    info_.kind = mode == CyclicMode::kPosition ? "CyclicPosition" : "CyclicSpeed";
+    info_.state = CommandState::kActive;
+  }
+  ~FakeCyclicStream() override {
+    std::lock_guard lock(*mu_);
+    if (record_->closes == 0) record_->destroyed_open = true;
+  }
+  const CommandInfo& command() const override { return info_; }
+  absl::Status Push(const CyclicSetpoint& setpoint) override {
+    std::lock_guard lock(*mu_);
+    if (options_.fail_at && record_->setpoints.size() == *options_.fail_at) {
+      return absl::FailedPreconditionError("drive 'fake': following error, cyclic command ended");
+    }
+    record_->setpoints.push_back(setpoint);
+    return absl::OkStatus();
+  }
+  CyclicStats stats() const override {
+    std::lock_guard lock(*mu_);
+    CyclicStats s;
+    s.received = record_->setpoints.size();
+    s.late = std::min<uint64_t>(options_.late, s.received);
+    s.sent = s.received - s.late;
+    s.missing = options_.missing;
+    s.cycle = std::chrono::microseconds(2000);
+    return s;
+  }
+  absl::StatusOr<CommandInfo> Close() override {
+    std::lock_guard lock(*mu_);
+    ++record_->closes;
+    info_.state = CommandState::kDone;
+    info_.ended = std::chrono::system_clock::now();
+    return info_;
+  }
+
+ private:
+  std::shared_ptr<std::mutex> mu_;
+  std::shared_ptr<CyclicRecord> record_;
+  const Options options_;
+  CommandInfo info_;
+};
 
 class FakeDrive final : public Drive {
  public:
@@ -63,6 +130,24 @@ class FakeDrive final : public Drive {
     return calls_;
   }
 
+  // StartCyclic answers a FakeCyclicStream (false: the seam's UNIMPLEMENTED default).
+  void SetCyclic(bool supported, FakeCyclicStream::Options options = {}) {
+    std::lock_guard lock(mu_);
+    cyclic_ = supported;
+    cyclic_options_ = options;
+  }
+  // The record of the last cyclic stream started (nullopt: none).
+  std::optional<CyclicRecord> cyclic() const {
+    std::lock_guard lock(*cyclic_mu_);
+    if (!cyclic_record_) return std::nullopt;
+    return *cyclic_record_;
+  }
+  // The unified state GetStatus reports (default OFFLINE).
+  void SetState(DriveState state) {
+    std::lock_guard lock(mu_);
+    state_ = state;
+  }
+
   const DriveConfig& config() const override { return config_; }
   std::string endpoint() const override { return "fake://" + config_.name; }
   absl::Status Activate() override { return absl::OkStatus(); }
@@ -98,6 +183,23 @@ class FakeDrive final : public Drive {
     return out;
   }
 
+  absl::StatusOr<std::unique_ptr<CyclicStream>> StartCyclic(CyclicMode mode) override {
+    FakeCyclicStream::Options options;
+    {
+      std::lock_guard lock(mu_);
+      if (!cyclic_) return Drive::StartCyclic(mode);
+      ++calls_;
+      options = cyclic_options_;
+    }
+    auto record = std::make_shared<CyclicRecord>();
+    record->mode = mode;
+    {
+      std::lock_guard lock(*cyclic_mu_);
+      cyclic_record_ = record;
+    }
+    return std::make_unique<FakeCyclicStream>(cyclic_mu_, std::move(record), options, mode);
+  }
+
   absl::StatusOr<int64_t> ReadParameter(const ParameterRef& ref) override {
     std::lock_guard lock(mu_);
     parameter_id_ = ref.id;
@@ -115,7 +217,12 @@ class FakeDrive final : public Drive {
     return reply_;
   }
 
-  DriveStatus GetStatus() const override { return DriveStatus{}; }
+  DriveStatus GetStatus() const override {
+    std::lock_guard lock(mu_);
+    DriveStatus s;
+    s.state = state_;
+    return s;
+  }
   std::optional<CommandInfo> GetCommand(uint64_t) const override { return std::nullopt; }
   DriveStatus WaitForStatus(uint64_t, std::chrono::steady_clock::time_point) const override {
     return DriveStatus{};
@@ -139,6 +246,12 @@ class FakeDrive final : public Drive {
   std::optional<NativeRequest> native_;
   std::optional<uint32_t> parameter_id_;
   int calls_ = 0;
+  DriveState state_ = DriveState::kOffline;
+  bool cyclic_ = false;
+  FakeCyclicStream::Options cyclic_options_;
+  // Shared with the streams (their Push may run on a gRPC thread while the test reads).
+  std::shared_ptr<std::mutex> cyclic_mu_ = std::make_shared<std::mutex>();
+  std::shared_ptr<CyclicRecord> cyclic_record_;
 };
 
 }  // namespace drivegw::server::test_support
