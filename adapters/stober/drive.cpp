@@ -374,7 +374,7 @@ DriveStatus StoberDrive::BuildStatusLocked() const {
   DriveStatus st;
   st.position_mm = actual_.position;
   st.velocity_mm_s = actual_.velocity;
-  st.demand_position_mm = actual_.position;
+  st.demand_position_mm = demand_reached_ && demand_target_ ? *demand_target_ : actual_.position;
   if (!OnlineLocked()) {
     st.state = DriveState::kOffline;
     st.native.text = offline_reason_;
@@ -424,8 +424,12 @@ void StoberDrive::PublishLocked() { PublishStatus(BuildStatusLocked()); }
 
 void StoberDrive::EndTrackerLocked(CommandState state, const std::string& message) {
   if (!tracker_) return;
-  UpdateCommand(tracker_->id, state, message);
+  // The status that ended the command is published first: whoever wakes on the final handle
+  // reads a status that already shows its outcome.
+  const uint64_t id = tracker_->id;
   tracker_.reset();
+  PublishLocked();
+  UpdateCommand(id, state, message);
 }
 
 // §2.15: DONE = I92 of the latest command (after its forced-0 cycle, §2.7), ERROR = I91 with
@@ -458,6 +462,7 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
                                   " denied or cancelled by the motion core: I90 ", s.cause, ": ",
                                   CauseText(s.cause)));
   } else if (state == CommandState::kDone) {
+    demand_reached_ = demand_target_.has_value();
     EndTrackerLocked(CommandState::kDone, "");
   } else if (state == CommandState::kActive) {
     UpdateCommand(tracker_->id, CommandState::kActive);
@@ -802,6 +807,11 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
   image_.command = start.command;
   image_.position = start.position;
   image_.execute = true;
+  // The profile's set position is not on the bus; after Done of a MoveAbsolute it is the target
+  // (§3.2 Done: I85 profile done at the set position).
+  demand_reached_ = false;
+  demand_target_.reset();
+  if (start.command == mc::kMoveAbsolute) demand_target_ = start.position;
   tracker_->edge_sent = clock_.Now();
   if (absl::Status s = SendRpdoLocked(1); !s.ok()) {
     EndTrackerLocked(CommandState::kError, std::string(s.message()));

@@ -173,6 +173,9 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   std::string emcy_text_;
   std::optional<Tracker> tracker_;
   bool disabling_ = false;
+  // Set position of the last absolute positioning (demand position once it is Done, decision 1203).
+  std::optional<double> demand_target_;
+  bool demand_reached_ = false;
   Stream* stream_ = nullptr;  // the open cyclic stream, if any
   StoberDriveCounters counters_;
 };

@@ -62,5 +62,6 @@ inline void PrintTo(const FamilyCase& c, std::ostream* os) { *os << c.name; }
 std::unique_ptr<FamilyFixture> MakeLinMotUdpFixture();
 std::unique_ptr<FamilyFixture> MakeLinMotDnFixture();
 std::unique_ptr<FamilyFixture> MakeTrinamicFixture();
+std::unique_ptr<FamilyFixture> MakeStoberFixture();
 
 }  // namespace drivegw::contract
