@@ -99,6 +99,7 @@ void StoberDrive::DoDeactivate() {
   }
   cv_.notify_all();
   if (worker_.joinable()) worker_.join();
+  DetachStream();
   std::shared_ptr<co::CanopenMaster> master;
   std::optional<co::ObserverId> observer;
   {
@@ -789,8 +790,8 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
     image_.jerk = start.jerk;
     DGW_RETURN_IF_ERROR(SendRpdoLocked(3));
   }
-  if ((start.direction && *start.direction != image_.direction) ||
-      (start.motion_id && *start.motion_id != image_.motion_id)) {
+  if (stream_ == nullptr && ((start.direction && *start.direction != image_.direction) ||
+                             (start.motion_id && *start.motion_id != image_.motion_id))) {
     if (start.direction) image_.direction = *start.direction;
     if (start.motion_id) image_.motion_id = *start.motion_id;
     DGW_RETURN_IF_ERROR(SendRpdoLocked(4));
@@ -917,6 +918,19 @@ absl::StatusOr<NativeReply> StoberDrive::Sdo(const CanOpenSdoRequest& req) {
   return reply;
 }
 
+absl::Status StoberDrive::WriteBound(const char* param, double value) {
+  auto a = ToCanOpen(P(param));
+  if (!a.ok()) return a.status();
+  auto bytes = Encode(P(param), value);
+  if (!bytes.ok()) return Annotate(bytes.status(), Prefix("write"));
+  CanOpenSdoRequest w;
+  w.index = a->index;
+  w.sub_index = a->sub_index;
+  w.write = true;
+  w.data = *bytes;
+  return Sdo(w).status();
+}
+
 absl::StatusOr<NativeReply> StoberDrive::SendNative(const NativeRequest& req) {
   DGW_RETURN_IF_ERROR(RequireActive("SendNative"));
   if (const auto* sdo = std::get_if<CanOpenSdoRequest>(&req)) return Sdo(*sdo);
@@ -940,15 +954,7 @@ absl::StatusOr<NativeReply> StoberDrive::SendNative(const NativeRequest& req) {
     DGW_RETURN_IF_ERROR(RequireEnabledLocked(CommandName(mcr->command)));
   }
   if (mcr->command == mc::kTorqueControl) {
-    auto bytes = Encode(P("I428"), mcr->torque_percent);
-    if (!bytes.ok()) return Annotate(bytes.status(), Prefix("SendNative"));
-    CanOpenSdoRequest w;
-    auto a = ToCanOpen(P("I428"));
-    w.index = a->index;
-    w.sub_index = a->sub_index;
-    w.write = true;
-    w.data = *bytes;
-    DGW_RETURN_IF_ERROR(Sdo(w).status());
+    DGW_RETURN_IF_ERROR(WriteBound("I428", mcr->torque_percent));  // §3.10 set torque
   }
   McStart s;
   s.kind = CommandName(mcr->command);
@@ -971,11 +977,6 @@ absl::StatusOr<NativeReply> StoberDrive::SendNative(const NativeRequest& req) {
   NativeReply reply;
   reply.command_id = info.id;
   return reply;
-}
-
-absl::StatusOr<std::unique_ptr<Drive::CyclicStream>> StoberDrive::StartCyclic(CyclicMode mode) {
-  (void)mode;
-  return absl::UnimplementedError(Prefix("StartCyclic") + "not yet implemented");
 }
 
 }  // namespace drivegw::stober

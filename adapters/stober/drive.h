@@ -52,6 +52,9 @@ struct RpdoImage {
   uint32_t motion_id = 0;         // I400
 };
 
+// RPDO4 while a cyclic stream runs: I421 cyclic position · I426 cyclic speed (decision 1205).
+PdoLayout CyclicLayout();
+
 class StoberDrive final : public DriveBase, private canopen::NodeObserver {
  public:
   StoberDrive(DriveConfig config, const Clock& clock);
@@ -143,6 +146,11 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   absl::StatusOr<CommandInfo> StartMc(const McStart& start);
   absl::StatusOr<McStart> PlanMove(const MotionCommand& cmd) const;
   absl::StatusOr<NativeReply> Sdo(const CanOpenSdoRequest& req);
+  absl::Status WriteBound(const char* param, double value);
+  // drive_cyclic.cpp: RPDO4 ↔ the cyclic set values (decision 1205).
+  absl::Status MapCyclicRpdo(bool cyclic);
+  absl::StatusOr<CommandInfo> CloseStream(Stream* stream);
+  void DetachStream();  // Deactivate: the open stream stops sending, SYNC stops if ours
 
   const Clock& clock_;
   const uint8_t node_;
@@ -176,7 +184,9 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   // Set position of the last absolute positioning (demand position once it is Done, decision 1203).
   std::optional<double> demand_target_;
   bool demand_reached_ = false;
-  Stream* stream_ = nullptr;  // the open cyclic stream, if any
+  Stream* stream_ = nullptr;   // the open cyclic stream, if any (RPDO4 carries I421/I426)
+  bool sync_started_ = false;  // this drive started the bus's SYNC producer
+  PdoLayout cyclic_layout_ = CyclicLayout();
   StoberDriveCounters counters_;
 };
 

@@ -375,6 +375,50 @@ TEST_F(StoberDriveTest, SdoReadWriteWithAbortNames) {
   EXPECT_FALSE(drive_->ReadParameter(ParameterRef{0x5FFF00, false}).ok());
 }
 
+TEST_F(StoberDriveTest, CyclicPositionStreamOneSetPointPerSync) {
+  Start();
+  Enable();
+  Referenced();
+  // Cycles without a set point are extrapolated for I423 (L1344): 100 ms tolerates scheduling
+  // jitter of the SYNC thread on a loaded machine.
+  ASSERT_TRUE(drive_->WriteParameter(ParameterRef{Id("I423"), false}, 100).ok());
+  auto stream = drive_->StartCyclic(CyclicMode::kPosition);
+  ASSERT_TRUE(stream.ok()) << stream.status();
+  Drive::CyclicStream& st = **stream;
+  EXPECT_EQ(st.command().kind, "MC_CyclicPosition");
+  EXPECT_EQ(st.stats().cycle, std::chrono::microseconds(2000));
+  // A 10 mm ramp over 50 cycles, then the client holds 10 mm (an extrapolating drive would
+  // otherwise carry the ramp's slope on).
+  for (int i = 1; i <= 50; ++i) ASSERT_TRUE(st.Push({i * 0.2, 0}).ok());
+  auto wait_sent = [&](uint64_t n) {
+    const auto deadline = std::chrono::steady_clock::now() + 5s;
+    while (st.stats().sent < n && std::chrono::steady_clock::now() < deadline) {
+      drive_->WaitForStatus(drive_->GetStatus().sequence, std::chrono::steady_clock::now() + 5ms);
+    }
+    return st.stats().sent >= n;
+  };
+  ASSERT_TRUE(wait_sent(40));
+  for (int i = 0; i < 50; ++i) ASSERT_TRUE(st.Push({10, 0}).ok());
+  ASSERT_TRUE(wait_sent(100));
+  const CyclicStats stats = st.stats();
+  EXPECT_EQ(stats.received, 100u);
+  EXPECT_EQ(stats.sent, 100u);
+  EXPECT_EQ(stats.late, 0u);
+  DriveStatus s =
+      WaitUntil([](const DriveStatus& s) { return std::abs(s.position_mm - 10) < 1e-6; });
+  EXPECT_NEAR(s.position_mm, 10, 1e-6);
+  EXPECT_EQ(drive_->GetCommand(st.command().id)->state, CommandState::kActive);
+  auto closed = st.Close();
+  ASSERT_TRUE(closed.ok()) << closed.status();
+  EXPECT_EQ(closed->state, CommandState::kDone);
+  EXPECT_EQ(st.Push({11, 0}).code(), absl::StatusCode::kFailedPrecondition);
+  s = WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
+  EXPECT_EQ(s.state, DriveState::kEnabled);
+  EXPECT_NEAR(s.position_mm, 10, 1e-3);
+  // RPDO4 has its default mapping back: an ordinary move works.
+  EXPECT_EQ(WaitFinal(Move(MoveAbsolute{0, 500, 5000, 5000}).id).state, CommandState::kDone);
+}
+
 TEST(StoberFactory, ChecksNameTheField) {
   DriveConfig c;
   c.name = "s";
