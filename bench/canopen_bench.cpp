@@ -399,7 +399,7 @@ void BenchSync(double seconds, int& port) {
     row("RPDO after its SYNC (latency)", s.rpdo_latency);
     std::printf(
         "       SYNCs sent %llu, overruns (skipped periods) %llu, missed by the second channel "
-        "%llu,\n       master counter sync_max_period_error %.1f us (last round)\n",
+        "%llu,\n       master counter sync_max_period_error %.1f us (largest of the rounds)\n",
         static_cast<unsigned long long>(s.sent), static_cast<unsigned long long>(s.overruns),
         static_cast<unsigned long long>(s.lost), s.counter_max_us);
   }
