@@ -39,14 +39,30 @@ uint32_t Id(const char* param) {
 class StoberDriveTest : public ::testing::Test {
  protected:
   void Start(ss::AxisServerOptions o = {}) {
-    bus_.kind = CanBusConfig::Kind::kUdpMulticast;
-    bus_.group = kGroup;
-    bus_.port = RandomPort();
+    StartServer(o);
+    StartDrive();
+    const DriveStatus s =
+        WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
+    ASSERT_NE(s.state, DriveState::kOffline) << s.native.text;
+  }
+  void StartServer(ss::AxisServerOptions o = {}) {
+    if (bus_.port == CanBusConfig{}.port) {
+      bus_.kind = CanBusConfig::Kind::kUdpMulticast;
+      bus_.group = kGroup;
+      bus_.port = RandomPort();
+    }
     o.node_id = kNode;
     o.can = bus_;
     auto server = ss::AxisServer::Start(o, SteadyClock::Instance());
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = std::move(*server);
+  }
+  void StartDrive() {
+    if (bus_.port == CanBusConfig{}.port) {
+      bus_.kind = CanBusConfig::Kind::kUdpMulticast;
+      bus_.group = kGroup;
+      bus_.port = RandomPort();
+    }
     config_.name = "st1";
     config_.family = kFamilyName;
     config_.can = bus_;
@@ -63,9 +79,6 @@ class StoberDriveTest : public ::testing::Test {
     ASSERT_TRUE(drive.ok()) << drive.status();
     drive_.reset(static_cast<StoberDrive*>(drive->release()));
     ASSERT_TRUE(drive_->Activate().ok());
-    const DriveStatus s =
-        WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
-    ASSERT_NE(s.state, DriveState::kOffline) << s.native.text;
   }
   void TearDown() override {
     if (drive_) drive_->Deactivate();
@@ -417,6 +430,75 @@ TEST_F(StoberDriveTest, CyclicPositionStreamOneSetPointPerSync) {
   EXPECT_NEAR(s.position_mm, 10, 1e-3);
   // RPDO4 has its default mapping back: an ordinary move works.
   EXPECT_EQ(WaitFinal(Move(MoveAbsolute{0, 500, 5000, 5000}).id).state, CommandState::kDone);
+}
+
+TEST_F(StoberDriveTest, NodeAbsentAtActivationIsConfiguredWhenItBoots) {
+  StartDrive();
+  DriveStatus s = drive_->GetStatus();
+  EXPECT_EQ(s.state, DriveState::kOffline);
+  EXPECT_EQ(drive_->Enable().status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_GE(drive_->counters().configure_failures, 1u);
+  StartServer();
+  s = WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
+  EXPECT_EQ(s.state, DriveState::kDisabled) << s.native.text;
+  Enable();
+}
+
+TEST_F(StoberDriveTest, EndlessMoveVelocityRunsUntilStop) {
+  ss::AxisServerOptions o;
+  o.axis.endless = true;
+  o.axis.revolution = 360;
+  Start(o);
+  Enable();
+  const CommandInfo v = Move(MoveVelocity{-90, 900, 900});
+  // Done = speed reached (I85 and I183, §2.7); the axis keeps turning.
+  EXPECT_EQ(WaitFinal(v.id).state, CommandState::kDone) << drive_->GetCommand(v.id)->message;
+  DriveStatus s = drive_->GetStatus();
+  EXPECT_EQ(s.state, DriveState::kMoving);
+  EXPECT_NEAR(WaitUntil([](const DriveStatus& s) {
+                return std::abs(s.velocity_mm_s + 90) < 1e-6;
+              }).velocity_mm_s,
+              -90, 1e-6);
+  const CommandInfo stop = Move(StopMotion{900});
+  EXPECT_EQ(WaitFinal(stop.id).state, CommandState::kDone);
+  s = WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
+  EXPECT_EQ(s.state, DriveState::kEnabled);
+}
+
+TEST_F(StoberDriveTest, CyclicSpeedStream) {
+  Start();
+  Enable();
+  ASSERT_TRUE(drive_->WriteParameter(ParameterRef{Id("I423"), false}, 100).ok());
+  auto stream = drive_->StartCyclic(CyclicMode::kVelocity);
+  ASSERT_TRUE(stream.ok()) << stream.status();
+  Drive::CyclicStream& st = **stream;
+  EXPECT_EQ(st.command().kind, "MC_CyclicSpeed");
+  EXPECT_EQ(drive_->StartCyclic(CyclicMode::kPosition).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+  for (int i = 0; i < 60; ++i) ASSERT_TRUE(st.Push({i < 40 ? 50.0 : 0.0, 0}).ok());
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (st.stats().sent < 60 && std::chrono::steady_clock::now() < deadline) {
+    drive_->WaitForStatus(drive_->GetStatus().sequence, std::chrono::steady_clock::now() + 5ms);
+  }
+  EXPECT_EQ(st.stats().sent, 60u);
+  auto closed = st.Close();
+  ASSERT_TRUE(closed.ok()) << closed.status();
+  EXPECT_EQ(closed->state, CommandState::kDone);
+  const DriveStatus s =
+      WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
+  // 40 set points of 50 mm/s at 2 ms: about 4 mm (the drive interpolates between them).
+  EXPECT_NEAR(s.position_mm, 4, 1);
+}
+
+TEST_F(StoberDriveTest, InjectedSdoAbortIsNamed) {
+  Start();
+  server_->InjectSdoAbort(0x300A, 0, drivegw::canopen::SdoAbortCode::kHardwareError);
+  auto r = drive_->ReadParameter(ParameterRef{Id("I10"), false});
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(std::string(r.status().message()), HasSubstr("hardware error"));
+  EXPECT_THAT(std::string(r.status().message()), HasSubstr("300A"));
+  server_->ClearSdoAborts();
+  EXPECT_TRUE(drive_->ReadParameter(ParameterRef{Id("I10"), false}).ok());
 }
 
 TEST(StoberFactory, ChecksNameTheField) {
