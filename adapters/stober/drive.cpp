@@ -119,10 +119,9 @@ void StoberDrive::DoDeactivate() {
 
 void StoberDrive::RunWorker() {
   std::unique_lock lock(mu_);
-  TimePoint next_try{};
   while (!stop_) {
     const TimePoint now = clock_.Now();
-    if (need_config_ && now >= next_try) {
+    if (need_config_ && now >= next_try_) {
       const uint64_t gen = config_gen_;
       configuring_ = true;
       lock.unlock();
@@ -138,7 +137,7 @@ void StoberDrive::RunWorker() {
       } else if (!s.ok()) {
         ++counters_.configure_failures;
         offline_reason_ = std::string(s.message());
-        next_try = clock_.Now() + kRetryConfigure;
+        next_try_ = clock_.Now() + kRetryConfigure;
       }
       PublishLocked();
       cv_.notify_all();
@@ -286,6 +285,7 @@ void StoberDrive::OnBootUp(const co::NodeEventInfo&) noexcept {
   if (counters_.configurations > 0) ++counters_.bootups;
   configured_ = false;
   need_config_ = true;
+  next_try_ = TimePoint{};  // the node is there now: configure at once
   ++config_gen_;
   emcy_code_ = 0;
   emcy_text_.clear();
@@ -347,6 +347,7 @@ void StoberDrive::OnLinkEvent(const co::NodeEventInfo& event) noexcept {
       link_ok_ = true;
       configured_ = false;
       need_config_ = true;
+      next_try_ = TimePoint{};
       ++config_gen_;
       offline_reason_ = "re-configuring after the link came back";
       PublishLocked();

@@ -163,6 +163,7 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   std::thread worker_;
   bool stop_ = false;
   bool need_config_ = false;
+  TimePoint next_try_{};     // next configuration attempt after a failure
   uint64_t config_gen_ = 0;  // bumped by every event that invalidates a configuration
   bool configuring_ = false;
   bool configured_ = false;

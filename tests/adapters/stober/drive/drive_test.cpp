@@ -486,8 +486,11 @@ TEST_F(StoberDriveTest, CyclicSpeedStream) {
   EXPECT_EQ(closed->state, CommandState::kDone);
   const DriveStatus s =
       WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
-  // 40 set points of 50 mm/s at 2 ms: about 4 mm (the drive interpolates between them).
-  EXPECT_NEAR(s.position_mm, 4, 1);
+  // 40 set points of 50 mm/s at 2 ms: 4 mm; every missing cycle in between extrapolates the
+  // speed one more cycle (0.1 mm at most).
+  const double extra = 0.1 * static_cast<double>(st.stats().missing);
+  EXPECT_GT(s.position_mm, 3.5);
+  EXPECT_LT(s.position_mm, 4.5 + extra);
 }
 
 TEST_F(StoberDriveTest, InjectedSdoAbortIsNamed) {
