@@ -20,8 +20,10 @@ namespace co = drivegw::canopen;
 
 constexpr Duration kRetryConfigure = 500ms;  // node absent: probe again (decision 1194)
 constexpr Duration kWorkerTick = 20ms;
-constexpr Duration kMinExecuteLow = 3ms;     // decision 1197 (1179: ≥ one A150 cycle)
-constexpr Duration kEdgeFallback = 10ms;     // the simulated node advances at least every 5 ms
+constexpr Duration kMinExecuteLow = 3ms;  // decision 1197 (1179: ≥ one A150 cycle)
+constexpr Duration kEdgeFallback = 10ms;
+constexpr Duration kResetRetry = 100ms;      // a fault reset edge not taken is repeated     // the
+                                             // simulated node advances at least every 5 ms
 constexpr double kJerkPerAcceleration = 10;  // jerk = 10/s × acceleration (decision 1198)
 
 uint16_t Cw(const RpdoImage& i) {
@@ -620,19 +622,37 @@ absl::StatusOr<CommandInfo> StoberDrive::AcknowledgeFault() {
   absl::Status s;
   if (cia_fault || error_stop) {
     // CiA 402 fault reset / motion-core reset: rising edge of control word bit 7 (decision 1147);
-    // from Fault the power stage bits are 0 (CiA 402 transition 15).
-    const uint16_t base = cia_fault
-                              ? control::kDisableVoltage
-                              : static_cast<uint16_t>(image_.control_word & ~control::kExecute);
-    s = ControlStepLocked(lock, base | control::kFaultReset, Deadline(), "AcknowledgeFault",
-                          [](PowerState q, const MotionStatus& m) {
-                            return !IsFaultState(q) && m.plc_state != kPlcErrorStop && !m.error();
-                          });
-    // Bit 7 low again so the next reset is an edge.
-    image_.control_word = base;
-    image_.execute = false;
-    (void)SendRpdoLocked(1);
-    execute_low_at_ = clock_.Now();
+    // from Fault the power stage bits are 0 (CiA 402 transition 15). The edge is taken only in
+    // Fault (not during the fault reaction) and, for the motion core, at standstill (G-04): wait
+    // for that, and repeat an edge that was not taken (decision 1195).
+    const TimePoint deadline = Deadline();
+    auto cleared = [](PowerState q, const MotionStatus& m) {
+      return !IsFaultState(q) && m.plc_state != kPlcErrorStop && !m.error();
+    };
+    auto resettable = [&] {
+      if (!OnlineLocked()) return true;
+      const PowerState q = DecodePowerState(status_->status_word);
+      if (cia_fault) return q != PowerState::kFaultReactionActive;
+      return (status_->flags & status_bit::kStandstill) != 0;
+    };
+    while (true) {
+      WaitLocked(lock, deadline, resettable);
+      if (s = RequireOnlineLocked("AcknowledgeFault"); !s.ok()) break;
+      if (cleared(DecodePowerState(status_->status_word), *status_)) break;
+      const uint16_t base = cia_fault
+                                ? control::kDisableVoltage
+                                : static_cast<uint16_t>(image_.control_word & ~control::kExecute);
+      const TimePoint slice = std::min(deadline, clock_.Now() + kResetRetry);
+      s = ControlStepLocked(lock, base | control::kFaultReset, slice, "AcknowledgeFault", cleared);
+      // Bit 7 low again so the next reset is an edge.
+      image_.control_word = base;
+      image_.execute = false;
+      (void)SendRpdoLocked(1);
+      execute_low_at_ = clock_.Now();
+      if (s.ok() || !absl::IsDeadlineExceeded(s) || clock_.Now() >= deadline) break;
+      WaitLocked(lock, execute_low_at_ + std::max<Duration>(2 * cycle_, kMinExecuteLow),
+                 [] { return false; });
+    }
   }
   if (!s.ok()) {
     UpdateCommand(info.id, CommandState::kError, std::string(s.message()));
