@@ -978,7 +978,7 @@ absl::StatusOr<NativeReply> StoberDrive::SendNative(const NativeRequest& req) {
     DGW_RETURN_IF_ERROR(WriteBound("I428", mcr->torque_percent));  // §3.10 set torque
   }
   McStart s;
-  s.kind = CommandName(mcr->command);
+  s.kind = CommandName(mcr->command) + 3;  // handle kind without "MC_", like "MoveAbsolute"
   s.command = mcr->command;
   s.position = mcr->position_mm;
   s.velocity = mcr->velocity_mm_s;

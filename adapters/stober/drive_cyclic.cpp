@@ -139,7 +139,7 @@ absl::Status StoberDrive::MapCyclicRpdo(bool cyclic) {
 }
 
 absl::StatusOr<std::unique_ptr<Drive::CyclicStream>> StoberDrive::StartCyclic(CyclicMode mode) {
-  const char* kind = mode == CyclicMode::kPosition ? "MC_CyclicPosition" : "MC_CyclicSpeed";
+  const char* kind = mode == CyclicMode::kPosition ? "CyclicPosition" : "CyclicSpeed";
   DGW_RETURN_IF_ERROR(RequireActive(kind));
   std::lock_guard op(op_mu_);
   double start_position = 0;

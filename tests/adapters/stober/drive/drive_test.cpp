@@ -340,7 +340,7 @@ TEST_F(StoberDriveTest, NativeMoveAdditiveAndHalt) {
   auto r = drive_->SendNative(add);
   ASSERT_TRUE(r.ok()) << r.status();
   ASSERT_NE(r->command_id, 0u);
-  EXPECT_EQ(drive_->GetCommand(r->command_id)->kind, "MC_MoveAdditive");
+  EXPECT_EQ(drive_->GetCommand(r->command_id)->kind, "MoveAdditive");
   EXPECT_EQ(WaitFinal(r->command_id).state, CommandState::kDone);
   EXPECT_NEAR(AtRest(30).position_mm, 30, 1e-6);
 
@@ -398,7 +398,7 @@ TEST_F(StoberDriveTest, CyclicPositionStreamOneSetPointPerSync) {
   auto stream = drive_->StartCyclic(CyclicMode::kPosition);
   ASSERT_TRUE(stream.ok()) << stream.status();
   Drive::CyclicStream& st = **stream;
-  EXPECT_EQ(st.command().kind, "MC_CyclicPosition");
+  EXPECT_EQ(st.command().kind, "CyclicPosition");
   EXPECT_EQ(st.stats().cycle, std::chrono::microseconds(2000));
   // A 10 mm ramp over 50 cycles, then the client holds 10 mm (an extrapolating drive would
   // otherwise carry the ramp's slope on).
@@ -472,7 +472,7 @@ TEST_F(StoberDriveTest, CyclicSpeedStream) {
   auto stream = drive_->StartCyclic(CyclicMode::kVelocity);
   ASSERT_TRUE(stream.ok()) << stream.status();
   Drive::CyclicStream& st = **stream;
-  EXPECT_EQ(st.command().kind, "MC_CyclicSpeed");
+  EXPECT_EQ(st.command().kind, "CyclicSpeed");
   EXPECT_EQ(drive_->StartCyclic(CyclicMode::kPosition).status().code(),
             absl::StatusCode::kFailedPrecondition);
   for (int i = 0; i < 60; ++i) ASSERT_TRUE(st.Push({i < 40 ? 50.0 : 0.0, 0}).ok());
