@@ -127,7 +127,11 @@ bool IsMotionPlcState(int s) {
 DriveState MapState(const MotionStatus& status) {
   const PowerState p = DecodePowerState(status.status_word);
   if (IsFaultState(p)) return DriveState::kFault;
-  if (p == PowerState::kQuickStopActive) return DriveState::kMoving;
+  if (p == PowerState::kQuickStopActive) {
+    // Still ramping unless I199 says standstill (a drive may stay in quick stop active at rest).
+    return (status.flags & status_bit::kStandstill) != 0 ? DriveState::kDisabled
+                                                         : DriveState::kMoving;
+  }
   if (p != PowerState::kOperationEnabled) return DriveState::kDisabled;
   if (status.plc_state == kPlcErrorStop) return DriveState::kFault;
   if (status.plc_state == kPlcHoming) return DriveState::kHoming;

@@ -59,7 +59,7 @@ std::string CauseText(int cause);
 bool IsMotionPlcState(int plc_state);  // 3, 4, 6, 11
 
 // Unified state from a TPDO1 sample (decision 1192): CiA 402 fault → FAULT; not Operation
-// enabled → DISABLED (quick stop active → MOVING, it still ramps); Operation enabled by I89:
+// enabled → DISABLED (quick stop active → MOVING while I199 = 0); Operation enabled by I89:
 // 7 → FAULT, 8 → HOMING, 3/4/6/11 → MOVING, else ENABLED.
 DriveState MapState(const MotionStatus& status);
 

@@ -40,6 +40,10 @@ TEST(Cia402Master, MapsStateFromStatusWordAndI89) {
   EXPECT_EQ(MapState(s), DriveState::kDisabled);
   s.status_word = 0x0218;
   EXPECT_EQ(MapState(s), DriveState::kFault);
+  s.status_word = 0x0217;  // quick stop active: ramping, then at rest
+  EXPECT_EQ(MapState(s), DriveState::kMoving);
+  s.flags = status_bit::kStandstill;
+  EXPECT_EQ(MapState(s), DriveState::kDisabled);
 }
 
 TEST(Cia402Master, DoneOnlyAfterTheForcedZeroCycle) {
