@@ -555,114 +555,113 @@ absl::Status StoberDrive::ControlStepLocked(std::unique_lock<std::mutex>& lock,
   return absl::OkStatus();
 }
 
-absl::StatusOr<CommandInfo> StoberDrive::Enable() {
-  DGW_RETURN_IF_ERROR(RequireActive("Enable"));
+absl::StatusOr<CommandInfo> StoberDrive::RunControlCommand(
+    const char* name, const std::function<absl::Status()>& precondition,
+    const std::function<absl::Status(std::unique_lock<std::mutex>&)>& step) {
+  DGW_RETURN_IF_ERROR(RequireActive(name));
   std::lock_guard op(op_mu_);
   std::unique_lock lock(mu_);
-  DGW_RETURN_IF_ERROR(RequireOnlineLocked("Enable"));
-  const DriveStatus now = BuildStatusLocked();
-  if (now.state == DriveState::kFault) {
-    return absl::FailedPreconditionError(absl::StrCat(Prefix("Enable"), "drive is in FAULT (",
-                                                      now.fault.text, "); AcknowledgeFault first"));
-  }
-  const CommandInfo info = StartCommand("Enable", false);
-  const TimePoint deadline = Deadline();
-  for (int i = 0; i < 4; ++i) {
-    const PowerState p = DecodePowerState(status_->status_word);
-    if (p == PowerState::kOperationEnabled) break;
-    const uint16_t cw = NextEnableStep(p);
-    absl::Status s = ControlStepLocked(lock, cw, deadline, "Enable",
-                                       [p](PowerState q, const MotionStatus&) { return q != p; });
-    if (s.ok() && IsFaultState(DecodePowerState(status_->status_word))) {
-      s = absl::FailedPreconditionError(Prefix("Enable") + "drive went to FAULT");
-    }
-    if (!s.ok()) {
-      UpdateCommand(info.id, CommandState::kError, std::string(s.message()));
-      return s;
-    }
+  DGW_RETURN_IF_ERROR(RequireOnlineLocked(name));
+  // A refused precondition records no command (it never started).
+  if (precondition) DGW_RETURN_IF_ERROR(precondition());
+  const CommandInfo info = StartCommand(name, false);
+  if (absl::Status s = step(lock); !s.ok()) {
+    UpdateCommand(info.id, CommandState::kError, std::string(s.message()));
+    return s;
   }
   UpdateCommand(info.id, CommandState::kDone);
   PublishLocked();
   return *GetCommand(info.id);
+}
+
+absl::StatusOr<CommandInfo> StoberDrive::Enable() {
+  auto not_in_fault = [&]() -> absl::Status {
+    const DriveStatus now = BuildStatusLocked();
+    if (now.state == DriveState::kFault) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          Prefix("Enable"), "drive is in FAULT (", now.fault.text, "); AcknowledgeFault first"));
+    }
+    return absl::OkStatus();
+  };
+  return RunControlCommand("Enable", not_in_fault, [&](std::unique_lock<std::mutex>& lock) {
+    const TimePoint deadline = Deadline();
+    for (int i = 0; i < 4; ++i) {
+      const PowerState p = DecodePowerState(status_->status_word);
+      if (p == PowerState::kOperationEnabled) break;
+      const uint16_t cw = NextEnableStep(p);
+      absl::Status s = ControlStepLocked(lock, cw, deadline, "Enable",
+                                         [p](PowerState q, const MotionStatus&) { return q != p; });
+      if (s.ok() && IsFaultState(DecodePowerState(status_->status_word))) {
+        s = absl::FailedPreconditionError(Prefix("Enable") + "drive went to FAULT");
+      }
+      if (!s.ok()) return s;
+    }
+    return absl::OkStatus();
+  });
 }
 
 absl::StatusOr<CommandInfo> StoberDrive::Disable() {
-  DGW_RETURN_IF_ERROR(RequireActive("Disable"));
-  std::lock_guard op(op_mu_);
-  std::unique_lock lock(mu_);
-  DGW_RETURN_IF_ERROR(RequireOnlineLocked("Disable"));
-  const CommandInfo info = StartCommand("Disable", false);
-  // decision 1195: disable voltage (→ switch on disabled); the axis is held by the drive's own
-  // enable-off reaction (sim decision 1146).
-  disabling_ = true;
-  absl::Status s = ControlStepLocked(
-      lock, control::kDisableVoltage, Deadline(), "Disable", [](PowerState q, const MotionStatus&) {
-        return q != PowerState::kOperationEnabled && q != PowerState::kQuickStopActive;
-      });
-  EndTrackerLocked(CommandState::kAborted, "aborted by Disable");
-  disabling_ = false;
-  if (!s.ok()) {
-    UpdateCommand(info.id, CommandState::kError, std::string(s.message()));
+  return RunControlCommand("Disable", nullptr, [&](std::unique_lock<std::mutex>& lock) {
+    // decision 1195: disable voltage (→ switch on disabled); the axis is held by the drive's own
+    // enable-off reaction (sim decision 1146).
+    disabling_ = true;
+    absl::Status s = ControlStepLocked(lock, control::kDisableVoltage, Deadline(), "Disable",
+                                       [](PowerState q, const MotionStatus&) {
+                                         return q != PowerState::kOperationEnabled &&
+                                                q != PowerState::kQuickStopActive;
+                                       });
+    EndTrackerLocked(CommandState::kAborted, "aborted by Disable");
+    disabling_ = false;
     return s;
-  }
-  UpdateCommand(info.id, CommandState::kDone);
-  PublishLocked();
-  return *GetCommand(info.id);
+  });
 }
 
 absl::StatusOr<CommandInfo> StoberDrive::AcknowledgeFault() {
-  DGW_RETURN_IF_ERROR(RequireActive("AcknowledgeFault"));
-  std::lock_guard op(op_mu_);
-  std::unique_lock lock(mu_);
-  DGW_RETURN_IF_ERROR(RequireOnlineLocked("AcknowledgeFault"));
-  const CommandInfo info = StartCommand("AcknowledgeFault", false);
-  const PowerState p = DecodePowerState(status_->status_word);
-  const bool cia_fault = IsFaultState(p);
-  const bool error_stop = status_->plc_state == kPlcErrorStop || status_->error();
-  absl::Status s;
-  if (cia_fault || error_stop) {
-    // CiA 402 fault reset / motion-core reset: rising edge of control word bit 7 (decision 1147);
-    // from Fault the power stage bits are 0 (CiA 402 transition 15). The edge is taken only in
-    // Fault (not during the fault reaction) and, for the motion core, at standstill (G-04): wait
-    // for that, and repeat an edge that was not taken (decision 1195).
-    const TimePoint deadline = Deadline();
-    auto cleared = [](PowerState q, const MotionStatus& m) {
-      return !IsFaultState(q) && m.plc_state != kPlcErrorStop && !m.error();
-    };
-    auto resettable = [&] {
-      if (!OnlineLocked()) return true;
-      const PowerState q = DecodePowerState(status_->status_word);
-      if (cia_fault) return q != PowerState::kFaultReactionActive;
-      return (status_->flags & status_bit::kStandstill) != 0;
-    };
-    while (true) {
-      WaitLocked(lock, deadline, resettable);
-      if (s = RequireOnlineLocked("AcknowledgeFault"); !s.ok()) break;
-      if (cleared(DecodePowerState(status_->status_word), *status_)) break;
-      const uint16_t base = cia_fault
-                                ? control::kDisableVoltage
-                                : static_cast<uint16_t>(image_.control_word & ~control::kExecute);
-      const TimePoint slice = std::min(deadline, clock_.Now() + kResetRetry);
-      s = ControlStepLocked(lock, base | control::kFaultReset, slice, "AcknowledgeFault", cleared);
-      // Bit 7 low again so the next reset is an edge.
-      image_.control_word = base;
-      image_.execute = false;
-      (void)SendRpdoLocked(1);
-      execute_low_at_ = clock_.Now();
-      if (s.ok() || !absl::IsDeadlineExceeded(s) || clock_.Now() >= deadline) break;
-      WaitLocked(lock, execute_low_at_ + std::max<Duration>(2 * cycle_, kMinExecuteLow),
-                 [] { return false; });
+  return RunControlCommand("AcknowledgeFault", nullptr, [&](std::unique_lock<std::mutex>& lock) {
+    const PowerState p = DecodePowerState(status_->status_word);
+    const bool cia_fault = IsFaultState(p);
+    const bool error_stop = status_->plc_state == kPlcErrorStop || status_->error();
+    absl::Status s;
+    if (cia_fault || error_stop) {
+      // CiA 402 fault reset / motion-core reset: rising edge of control word bit 7 (decision 1147);
+      // from Fault the power stage bits are 0 (CiA 402 transition 15). The edge is taken only in
+      // Fault (not during the fault reaction) and, for the motion core, at standstill (G-04): wait
+      // for that, and repeat an edge that was not taken (decision 1195).
+      const TimePoint deadline = Deadline();
+      auto cleared = [](PowerState q, const MotionStatus& m) {
+        return !IsFaultState(q) && m.plc_state != kPlcErrorStop && !m.error();
+      };
+      auto resettable = [&] {
+        if (!OnlineLocked()) return true;
+        const PowerState q = DecodePowerState(status_->status_word);
+        if (cia_fault) return q != PowerState::kFaultReactionActive;
+        return (status_->flags & status_bit::kStandstill) != 0;
+      };
+      while (true) {
+        WaitLocked(lock, deadline, resettable);
+        if (s = RequireOnlineLocked("AcknowledgeFault"); !s.ok()) break;
+        if (cleared(DecodePowerState(status_->status_word), *status_)) break;
+        const uint16_t base = cia_fault
+                                  ? control::kDisableVoltage
+                                  : static_cast<uint16_t>(image_.control_word & ~control::kExecute);
+        const TimePoint slice = std::min(deadline, clock_.Now() + kResetRetry);
+        s = ControlStepLocked(lock, base | control::kFaultReset, slice, "AcknowledgeFault",
+                              cleared);
+        // Bit 7 low again so the next reset is an edge.
+        image_.control_word = base;
+        image_.execute = false;
+        (void)SendRpdoLocked(1);
+        execute_low_at_ = clock_.Now();
+        if (s.ok() || !absl::IsDeadlineExceeded(s) || clock_.Now() >= deadline) break;
+        WaitLocked(lock, execute_low_at_ + std::max<Duration>(2 * cycle_, kMinExecuteLow),
+                   [] { return false; });
+      }
     }
-  }
-  if (!s.ok()) {
-    UpdateCommand(info.id, CommandState::kError, std::string(s.message()));
-    return s;
-  }
-  emcy_code_ = 0;
-  emcy_text_.clear();
-  UpdateCommand(info.id, CommandState::kDone);
-  PublishLocked();
-  return *GetCommand(info.id);
+    if (!s.ok()) return s;
+    emcy_code_ = 0;
+    emcy_text_.clear();
+    return absl::OkStatus();
+  });
 }
 
 // ---------------------------------------------------------------- motion

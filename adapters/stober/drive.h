@@ -7,6 +7,7 @@
 
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -129,6 +130,12 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   template <typename Pred>
   absl::Status ControlStepLocked(std::unique_lock<std::mutex>& lock, uint16_t control_word,
                                  TimePoint deadline, const std::string& what, Pred pred);
+
+  // Enable/Disable/AcknowledgeFault: one operation at a time, online check, `precondition` (may
+  // be empty; refusing records no command), then a command record whose outcome is `step`'s.
+  absl::StatusOr<CommandInfo> RunControlCommand(
+      const char* name, const std::function<absl::Status()>& precondition,
+      const std::function<absl::Status(std::unique_lock<std::mutex>&)>& step);
 
   // Motion-core command: set values, edge, acceptance, Execute low (decision 1179/1197).
   struct McStart {
