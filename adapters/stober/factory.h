@@ -7,6 +7,7 @@
 #include "absl/status/statusor.h"
 #include "adapters/core/clock.h"
 #include "adapters/core/drive.h"
+#include "adapters/core/parameter_catalogue.h"
 
 namespace drivegw::stober {
 
@@ -15,5 +16,8 @@ inline constexpr char kFamilyName[] = "stober";
 // InvalidArgument "drive 'axis-1'.node_id: 0 is not a CANopen node ID 1..127" etc.
 absl::StatusOr<std::unique_ptr<Drive>> CreateStoberDrive(const DriveConfig& config,
                                                          const Clock& clock);
+
+// The family's parameter catalogue (issue 6, decision 009), one instance per process.
+std::shared_ptr<const ParameterCatalogue> StoberParameterCatalogue();
 
 }  // namespace drivegw::stober

@@ -7,6 +7,7 @@
 #include "absl/status/statusor.h"
 #include "adapters/core/clock.h"
 #include "adapters/core/drive.h"
+#include "adapters/core/parameter_catalogue.h"
 
 namespace drivegw::trinamic {
 
@@ -15,5 +16,8 @@ inline constexpr char kFamilyName[] = "trinamic";
 // InvalidArgument "drive 'feeder-x'.trinamic.axis: 6 exceeds 5 (SIXpack motors 0..5)" etc.
 absl::StatusOr<std::unique_ptr<Drive>> CreateTrinamicDrive(const DriveConfig& config,
                                                            const Clock& clock);
+
+// The family's parameter catalogue (issue 6, decision 009), one instance per process.
+std::shared_ptr<const drivegw::ParameterCatalogue> TrinamicParameterCatalogue();
 
 }  // namespace drivegw::trinamic

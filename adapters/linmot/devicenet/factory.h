@@ -8,11 +8,15 @@
 #include "adapters/core/clock.h"
 #include "adapters/core/drive.h"
 #include "adapters/core/drive_config.h"
+#include "adapters/core/parameter_catalogue.h"
 
 namespace drivegw::linmot::devicenet {
 
 // Family name under which the composition root registers CreateLinMotDnDrive.
 inline constexpr char kFamilyName[] = "linmot-devicenet";
+
+// The family's parameter catalogue (issue 6, decision 009), one instance per process.
+std::shared_ptr<const ParameterCatalogue> LinMotDevicenetParameterCatalogue();
 
 // InvalidArgument naming the field when `config.can` or `config.mac_id` is missing or cannot
 // work (e.g. "drive 'x1'.mac_id: 0 is the gateway's own MAC ID (decision 981)"); the drive starts

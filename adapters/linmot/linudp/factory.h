@@ -8,11 +8,15 @@
 #include "adapters/core/clock.h"
 #include "adapters/core/drive.h"
 #include "adapters/core/drive_config.h"
+#include "adapters/core/parameter_catalogue.h"
 
 namespace drivegw::linmot::linudp {
 
 // Family name under which the composition root registers CreateLinMotUdpDrive.
 inline constexpr char kFamilyName[] = "linmot";
+
+// The family's parameter catalogue (issue 6, decision 009), one instance per process.
+std::shared_ptr<const ParameterCatalogue> LinMotParameterCatalogue();
 
 // InvalidArgument naming the field when `config.linudp` is missing or a LinUDP value cannot
 // work (e.g. "drive 'x1'.linudp.cycle: 0 ms is below 1 ms"); the drive starts UNCONFIGURED
