@@ -533,24 +533,29 @@ absl::StatusOr<CommandInfo> TrinamicDrive::Enable() {
   return *GetCommand(info.id);
 }
 
-absl::Status TrinamicDrive::StopAndWait(const std::string& what) {
-  auto sent = SendWord(Word(Opcode::kStopMotors, {1 << axis_}));  // `$2A` (L765-771)
+absl::Status TrinamicDrive::SendAndAwaitSample(
+    const Command& word, const std::function<bool(const AxisSample&)>& reached,
+    const std::function<absl::Status()>& timed_out) {
+  auto sent = SendWord(word);
   if (!sent.ok()) return sent.status();
   const auto after = SessionClock::now();
-  std::shared_ptr<Pack> pack;
-  {
-    std::lock_guard lock(mu_);
-    pack = pack_;
-  }
-  if (pack) pack->PollSoon(axis_);
+  PollSoon();
   std::unique_lock lock(mu_);
-  const Wait w = WaitSampleLocked(lock, after, after + config().timeouts.request,
-                                  [](const AxisSample& s) { return s.action == kActionInactive; });
+  const Wait w = WaitSampleLocked(lock, after, after + config().timeouts.request, reached);
   if (w == Wait::kReached) return absl::OkStatus();
-  return absl::DeadlineExceededError(
-      absl::StrCat(Prefix(what), "motor ", std::to_string(axis_), " still ",
-                   sample_ ? ActionText(sample_->action) : std::string("without sample"), " after ",
-                   std::to_string(config().timeouts.request.count()), " ms (stop_motors)"));
+  return timed_out();
+}
+
+absl::Status TrinamicDrive::StopAndWait(const std::string& what) {
+  return SendAndAwaitSample(
+      Word(Opcode::kStopMotors, {1 << axis_}),  // `$2A` (L765-771)
+      [](const AxisSample& s) { return s.action == kActionInactive; },
+      [&] {
+        return absl::DeadlineExceededError(absl::StrCat(
+            Prefix(what), "motor ", std::to_string(axis_), " still ",
+            sample_ ? ActionText(sample_->action) : std::string("without sample"), " after ",
+            std::to_string(config().timeouts.request.count()), " ms (stop_motors)"));
+      });
 }
 
 absl::StatusOr<CommandInfo> TrinamicDrive::Disable() {
@@ -699,23 +704,13 @@ absl::Status TrinamicDrive::StartRampTo(int32_t target) {
   if (action != kActionInactive && action != kActionRamp) {
     // `$23` only stops a rotation (L693, CT-27) and is ignored in any other active mode (L691):
     // `$25 0` ends rotation, PI control and a reference search (G-13, G-36), then the ramp.
-    auto r = SendWord(Word(Opcode::kStartRotation, {axis_, 0}));
-    if (!r.ok()) return r.status();
-    const auto after = SessionClock::now();
-    std::shared_ptr<Pack> pack;
-    {
-      std::lock_guard lock(mu_);
-      pack = pack_;
-    }
-    if (pack) pack->PollSoon(axis_);
-    std::unique_lock lock(mu_);
-    const Wait w = WaitSampleLocked(lock, after, after + config().timeouts.request,
-                                    [](const AxisSample& s) { return s.action == 0; });
-    if (w != Wait::kReached) {
-      return absl::DeadlineExceededError(absl::StrCat(
-          "start_rotation 0: motor ", std::to_string(axis_), " did not stand still within ",
-          std::to_string(config().timeouts.request.count()), " ms"));
-    }
+    DGW_RETURN_IF_ERROR(SendAndAwaitSample(
+        Word(Opcode::kStartRotation, {axis_, 0}), [](const AxisSample& s) { return s.action == 0; },
+        [&] {
+          return absl::DeadlineExceededError(absl::StrCat(
+              "start_rotation 0: motor ", std::to_string(axis_), " did not stand still within ",
+              std::to_string(config().timeouts.request.count()), " ms"));
+        }));
     action = 0;
   }
   if (action == kActionRamp) {

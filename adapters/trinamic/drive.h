@@ -150,6 +150,11 @@ class TrinamicDrive final : public DriveBase, private PackListener {
   // Called on a member of a coordinated group.
   CommandInfo BeginTracker(const std::string& kind, TrackKind track, int32_t target,
                            SessionClock::time_point sent, SessionClock::time_point deadline);
+  // Sends `word`, asks for the next sample at once and waits (timeouts.request) for a sample sent
+  // after it that satisfies `reached`; otherwise returns `timed_out()`, called with mu_ held.
+  absl::Status SendAndAwaitSample(const Command& word,
+                                  const std::function<bool(const AxisSample&)>& reached,
+                                  const std::function<absl::Status()>& timed_out);
   absl::Status StopAndWait(const std::string& what);
 
   const Clock& clock_;
