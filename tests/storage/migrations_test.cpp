@@ -55,9 +55,13 @@ TEST(MigrationsTest, Migrate_FreshDb_CreatesTablesTriggersAndSetsVersion) {
   EXPECT_EQ(*SchemaVersion(*db), LatestSchemaVersion());
   EXPECT_GE(LatestSchemaVersion(), 1);
   EXPECT_THAT(Names(*db, "table"),
-              ::testing::IsSupersetOf({"audit_log", "drive_config_snapshots"}));
+              ::testing::IsSupersetOf({"audit_log", "drive_config_snapshots", "parameter_sets",
+                                       "parameter_set_versions", "apply_operations"}));
+  // Later migrations add their own guards (002: versions immutable, operations never deleted).
   EXPECT_THAT(Names(*db, "trigger"),
-              ::testing::ElementsAre("audit_log_no_delete", "audit_log_no_update"));
+              ::testing::IsSupersetOf(
+                  {"audit_log_no_delete", "audit_log_no_update", "parameter_set_versions_no_update",
+                   "parameter_set_versions_no_delete", "apply_operations_no_delete"}));
 }
 
 TEST(MigrationsTest, Migrate_Twice_IsIdempotent) {
