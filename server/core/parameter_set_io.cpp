@@ -72,15 +72,24 @@ class JsonReader {
         if (pos_ >= s_.size()) break;
         char e = s_[pos_++];
         switch (e) {
-          case 'n': out += '\n'; break;
-          case 't': out += '\t'; break;
-          case 'r': out += '\r'; break;
-          case 'b': out += '\b'; break;
-          case 'f': out += '\f'; break;
+          case 'n':
+            out += '\n';
+            break;
+          case 't':
+            out += '\t';
+            break;
+          case 'r':
+            out += '\r';
+            break;
+          case 'b':
+            out += '\b';
+            break;
+          case 'f':
+            out += '\f';
+            break;
           case 'u': {
             unsigned v = 0;
-            if (pos_ + 4 > s_.size() ||
-                !absl::SimpleHexAtoi(std::string(s_.substr(pos_, 4)), &v)) {
+            if (pos_ + 4 > s_.size() || !absl::SimpleHexAtoi(std::string(s_.substr(pos_, 4)), &v)) {
               return Syntax("bad \\u escape");
             }
             pos_ += 4;
@@ -97,7 +106,8 @@ class JsonReader {
             }
             break;
           }
-          default: out += e;
+          default:
+            out += e;
         }
       } else {
         out += c;
@@ -173,12 +183,18 @@ class JsonReader {
 
 const char* KindName(JsonValue::Kind k) {
   switch (k) {
-    case JsonValue::Kind::kNull: return "null";
-    case JsonValue::Kind::kBool: return "a boolean";
-    case JsonValue::Kind::kNumber: return "a number";
-    case JsonValue::Kind::kString: return "a string";
-    case JsonValue::Kind::kArray: return "an array";
-    case JsonValue::Kind::kObject: return "an object";
+    case JsonValue::Kind::kNull:
+      return "null";
+    case JsonValue::Kind::kBool:
+      return "a boolean";
+    case JsonValue::Kind::kNumber:
+      return "a number";
+    case JsonValue::Kind::kString:
+      return "a string";
+    case JsonValue::Kind::kArray:
+      return "an array";
+    case JsonValue::Kind::kObject:
+      return "an object";
   }
   return "?";
 }
@@ -280,7 +296,8 @@ absl::StatusOr<storage::ParameterSet> ParseParameterSetCsv(std::string_view cont
   storage::ParameterSet set;
   bool header_seen = false;
   int line_no = 0;
-  for (absl::string_view raw : absl::StrSplit(absl::string_view(content.data(), content.size()), '\n')) {
+  for (absl::string_view raw :
+       absl::StrSplit(absl::string_view(content.data(), content.size()), '\n')) {
     ++line_no;
     absl::string_view line = absl::StripAsciiWhitespace(raw);  // also drops a CR of CRLF files
     if (line.empty() || line.front() == '#') continue;
@@ -313,11 +330,21 @@ std::string JsonQuote(std::string_view s) {
   std::string out = "\"";
   for (char c : s) {
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
-      case '\r': out += "\\r"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           out += absl::StrCat("\\u00", absl::Hex(static_cast<unsigned char>(c), absl::kZeroPad2));

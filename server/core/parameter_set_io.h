@@ -1,7 +1,7 @@
 // Import and export of parameter sets as files (issue 6, decision 011): JSON
-// {"name", "family", "model", "description", "target_stored", "parameters": [{"parameter", "value"}]}
-// and CSV "parameter,value" with a header line and '#' comments. Pure text <-> struct: names are
-// resolved and values validated against the catalogue by the service, not here.
+// {"name", "family", "model", "description", "target_stored", "parameters": [{"parameter",
+// "value"}]} and CSV "parameter,value" with a header line and '#' comments. Pure text <-> struct:
+// names are resolved and values validated against the catalogue by the service, not here.
 #pragma once
 
 #include <string>

@@ -9,6 +9,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "google/protobuf/util/time_util.h"
+#include "google/rpc/error_details.pb.h"
 #include "server/core/audit.h"
 #include "server/core/errors.h"
 #include "server/core/parameter_set_io.h"
@@ -94,6 +95,21 @@ std::vector<storage::ParameterValue> FromProto(
   return out;
 }
 
+// A stale etag (FailedPrecondition from the repo) gets a google.rpc.PreconditionFailure
+// {type "ETAG", subject the set}: the REST front end answers it 412 instead of 400 (RFC 9110
+// §13.1.1 If-Match; decision 011), gRPC clients see FAILED_PRECONDITION with the detail.
+absl::Status EtagDetail(absl::Status s, const std::string& set) {
+  if (!absl::IsFailedPrecondition(s) || !absl::StrContains(s.message(), "etag")) return s;
+  google::rpc::PreconditionFailure pf;
+  auto* v = pf.add_violations();
+  v->set_type("ETAG");
+  v->set_subject(absl::StrCat(std::string(kSetPrefix), set));
+  v->set_description(std::string(s.message()));
+  s.SetPayload("type.googleapis.com/google.rpc.PreconditionFailure",
+               absl::Cord(pf.SerializeAsString()));
+  return s;
+}
+
 // {"before": ..., "after": ...} for the audit entry (either may be absent).
 std::string BeforeAfter(const v1::ParameterSet* before, const v1::ParameterSet* after) {
   std::string out = "{";
@@ -111,8 +127,8 @@ absl::StatusOr<std::string> ParameterSetId(const std::string& field, const std::
   absl::string_view id = name;
   if (absl::StartsWith(id, kSetPrefix)) id.remove_prefix(kSetPrefix.size());
   if (id.empty() || absl::StrContains(id, '/')) {
-    return FieldError(field,
-                      absl::StrCat("'", name, "' is not a parameter set name (\"parameterSets/{set}\")"));
+    return FieldError(
+        field, absl::StrCat("'", name, "' is not a parameter set name (\"parameterSets/{set}\")"));
   }
   return std::string(id);
 }
@@ -161,8 +177,8 @@ absl::Status ParameterSetServiceCore::Resolve(const std::string& field,
       continue;
     }
     if (!seen.insert(def->id).second) {
-      violations.push_back({absl::StrCat(at, ".parameter"),
-                            absl::StrCat(def->name, " is listed twice")});
+      violations.push_back(
+          {absl::StrCat(at, ".parameter"), absl::StrCat(def->name, " is listed twice")});
       continue;
     }
     if (auto s = catalogue.Validate(*def, v.value); !s.ok()) {
@@ -230,12 +246,9 @@ ParameterSetServiceCore::ListParameterDefinitions(const v1::ListParameterDefinit
   return out;
 }
 
-absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::Store(const std::string& action,
-                                                                storage::ParameterSet set,
-                                                                bool create,
-                                                                const std::string& etag,
-                                                                const std::string& comment,
-                                                                const CallContext& c) {
+absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::Store(
+    const std::string& action, storage::ParameterSet set, bool create, const std::string& etag,
+    const std::string& comment, const CallContext& c) {
   set.author = c.principal;
   absl::StatusOr<storage::ParameterSet> stored;
   std::optional<v1::ParameterSet> before;
@@ -245,8 +258,9 @@ absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::Store(const std::strin
     if (auto old = repo_.Get(set.name); old.ok()) before = ToProto(*old);
     stored = repo_.Update(set, etag, comment);
   }
-  absl::StatusOr<v1::ParameterSet> out =
-      stored.ok() ? absl::StatusOr<v1::ParameterSet>(ToProto(*stored)) : stored.status();
+  absl::StatusOr<v1::ParameterSet> out = stored.ok()
+                                             ? absl::StatusOr<v1::ParameterSet>(ToProto(*stored))
+                                             : EtagDetail(stored.status(), set.name);
   std::string json;
   if (out.ok()) {
     json = BeforeAfter(before ? &*before : nullptr, &*out);
@@ -349,7 +363,7 @@ absl::StatusOr<v1::DeleteParameterSetResponse> ParameterSetServiceCore::DeletePa
       v1::ParameterSet b = ToProto(*before);
       json = BeforeAfter(&b, nullptr);
     }
-    s = repo_.Delete(*name, r.etag());
+    s = EtagDetail(repo_.Delete(*name, r.etag()), *name);
   }
   Audit(c, "", "DeleteParameterSet", json, s);
   if (!s.ok()) return s;
@@ -405,8 +419,8 @@ absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::CaptureParameterSet(
                                                    "' is for ", existing->family)));
     }
     if (r.etag().empty()) {
-      return fail(FieldError("etag", absl::StrCat("is required: set '", *name,
-                                                  "' exists (capture adds a version)")));
+      return fail(FieldError(
+          "etag", absl::StrCat("is required: set '", *name, "' exists (capture adds a version)")));
     }
     set = *existing;
   }
@@ -423,7 +437,8 @@ absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::CaptureParameterSet(
   for (size_t i = 0; i < wanted.size(); ++i) {
     auto def = (*cat)->Find(wanted[i].parameter);
     if (!def.ok()) {
-      return fail(FieldError(absl::StrCat("parameters[", i, "]"), std::string(def.status().message())));
+      return fail(
+          FieldError(absl::StrCat("parameters[", i, "]"), std::string(def.status().message())));
     }
     if (!seen.insert(def->id).second) {
       return fail(FieldError(absl::StrCat("parameters[", i, "]"),
@@ -534,13 +549,14 @@ absl::StatusOr<v1::Operation> ParameterSetServiceCore::ApplyParameterSet(
   req.principal = c.principal;
   // The final state (with pre-images and what was written) is audited when the operation ends.
   storage::AuditLog* audit = audit_;
-  auto op = applier_.Start(std::move(req), [audit, c, drive_names](const storage::ApplyOperation& done) {
-    const v1::Operation p = ToProto(done);
-    absl::Status result = done.state == "SUCCEEDED"
-                              ? absl::OkStatus()
-                              : absl::AbortedError(absl::StrCat(p.name(), " ", done.state));
-    WriteAudit(audit, c, drive_names, "ApplyParameterSet.done", ToAuditJson(p), result);
-  });
+  auto op =
+      applier_.Start(std::move(req), [audit, c, drive_names](const storage::ApplyOperation& done) {
+        const v1::Operation p = ToProto(done);
+        absl::Status result = done.state == "SUCCEEDED"
+                                  ? absl::OkStatus()
+                                  : absl::AbortedError(absl::StrCat(p.name(), " ", done.state));
+        WriteAudit(audit, c, drive_names, "ApplyParameterSet.done", ToAuditJson(p), result);
+      });
   if (!op.ok()) return fail(op.status());
   v1::Operation out = ToProto(*op);
   Audit(c, drive_names, "ApplyParameterSet",
@@ -549,12 +565,13 @@ absl::StatusOr<v1::Operation> ParameterSetServiceCore::ApplyParameterSet(
   return out;
 }
 
-absl::StatusOr<v1::Operation> ParameterSetServiceCore::GetOperation(const v1::GetOperationRequest& r,
-                                                                   const CallContext&) {
+absl::StatusOr<v1::Operation> ParameterSetServiceCore::GetOperation(
+    const v1::GetOperationRequest& r, const CallContext&) {
   absl::string_view id = r.name();
   if (absl::StartsWith(id, kOperationPrefix)) id.remove_prefix(kOperationPrefix.size());
   if (id.empty() || absl::StrContains(id, '/')) {
-    return FieldError("name", absl::StrCat("'", r.name(), "' is not an operation name (\"operations/{op}\")"));
+    return FieldError(
+        "name", absl::StrCat("'", r.name(), "' is not an operation name (\"operations/{op}\")"));
   }
   auto op = repo_.GetOperation(std::string(id));
   if (!op.ok()) return op.status();
@@ -583,8 +600,12 @@ absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::ImportParameterSet(
   };
   absl::StatusOr<storage::ParameterSet> parsed;
   switch (r.format()) {
-    case v1::PARAMETER_SET_FORMAT_JSON: parsed = ParseParameterSetJson(r.content()); break;
-    case v1::PARAMETER_SET_FORMAT_CSV: parsed = ParseParameterSetCsv(r.content()); break;
+    case v1::PARAMETER_SET_FORMAT_JSON:
+      parsed = ParseParameterSetJson(r.content());
+      break;
+    case v1::PARAMETER_SET_FORMAT_CSV:
+      parsed = ParseParameterSetCsv(r.content());
+      break;
     default:
       return fail(FieldError("format", "is required (PARAMETER_SET_FORMAT_JSON or _CSV)"));
   }
@@ -603,9 +624,9 @@ absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::ImportParameterSet(
   if (!create && !existing.ok()) return fail(existing.status());
   if (!create) {
     if (existing->family != set.family) {
-      return fail(FieldError("family", absl::StrCat("set '", set.name, "' is for ",
-                                                    existing->family, ", the file for ",
-                                                    set.family)));
+      return fail(
+          FieldError("family", absl::StrCat("set '", set.name, "' is for ", existing->family,
+                                            ", the file for ", set.family)));
     }
     if (r.etag().empty()) {
       return fail(FieldError("etag", absl::StrCat("is required: set '", set.name,

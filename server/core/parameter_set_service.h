@@ -27,8 +27,8 @@ class ParameterSetServiceCore {
  public:
   // Every reference must outlive the core; `audit` may be null (tests without storage).
   ParameterSetServiceCore(storage::ParameterSetRepo& repo, ParameterApplier& applier,
-                          const CatalogueList& catalogues, std::vector<std::shared_ptr<Drive>> drives,
-                          storage::AuditLog* audit);
+                          const CatalogueList& catalogues,
+                          std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit);
 
   absl::StatusOr<v1::ListParameterDefinitionsResponse> ListParameterDefinitions(
       const v1::ListParameterDefinitionsRequest& r, const CallContext& c);

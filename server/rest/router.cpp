@@ -24,6 +24,7 @@
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
 #include "drivegw/v1/drive.pb.h"
+#include "drivegw/v1/parameter_sets.pb.h"
 #include "google/api/annotations.pb.h"
 #include "google/protobuf/descriptor.h"
 #include "google/protobuf/message.h"
@@ -79,6 +80,15 @@ HttpResponse ErrorFromGrpc(const grpc::Status& status) {
     std::string json;
     if (rich.ParseFromString(status.error_details()) &&
         pb::util::MessageToJsonString(rich, &json, PrintOptions()).ok()) {
+      // A stale etag is 412 Precondition Failed (RFC 9110 §15.5.13; decision 011), not 400.
+      for (const auto& any : rich.details()) {
+        google::rpc::PreconditionFailure pf;
+        if (any.Is<google::rpc::PreconditionFailure>() && any.UnpackTo(&pf)) {
+          for (const auto& v : pf.violations()) {
+            if (v.type() == "ETAG") return JsonResponse(412, std::move(json));
+          }
+        }
+      }
       return JsonResponse(http, std::move(json));
     }
   }
@@ -633,23 +643,28 @@ absl::StatusOr<std::unique_ptr<Router>> Router::Create(RouterOptions options) {
   (void)google::rpc::BadRequest::descriptor();
   (void)google::rpc::ErrorInfo::descriptor();
   (void)google::rpc::PreconditionFailure::descriptor();
-  const auto* service = pb::DescriptorPool::generated_pool()->FindServiceByName(options.service);
-  if (service == nullptr) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("rest router: service ", options.service, " not in the descriptor pool"));
-  }
+  (void)drivegw::v1::ParameterSet::descriptor();
   std::vector<Route> routes;
-  for (int i = 0; i < service->method_count(); ++i) {
-    const auto* m = service->method(i);
-    if (!m->options().HasExtension(google::api::http)) continue;
-    if (m->client_streaming()) {
-      log::Warn("rest.route_skipped",
-                log::Fields().Add("method", m->full_name()).Add("reason", "client_streaming"));
-      continue;
+  std::vector<std::string> names{options.service};
+  names.insert(names.end(), options.more_services.begin(), options.more_services.end());
+  for (const std::string& name : names) {
+    const auto* service = pb::DescriptorPool::generated_pool()->FindServiceByName(name);
+    if (service == nullptr) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("rest router: service ", name, " not in the descriptor pool"));
     }
-    if (auto s = AddRoutes(m, m->options().GetExtension(google::api::http), true, routes);
-        !s.ok()) {
-      return s;
+    for (int i = 0; i < service->method_count(); ++i) {
+      const auto* m = service->method(i);
+      if (!m->options().HasExtension(google::api::http)) continue;
+      if (m->client_streaming()) {
+        log::Warn("rest.route_skipped",
+                  log::Fields().Add("method", m->full_name()).Add("reason", "client_streaming"));
+        continue;
+      }
+      if (auto s = AddRoutes(m, m->options().GetExtension(google::api::http), true, routes);
+          !s.ok()) {
+        return s;
+      }
     }
   }
   return std::unique_ptr<Router>(new Router(std::move(options), std::move(routes)));

@@ -1,0 +1,51 @@
+// ParameterSetServiceGrpc: one line per RPC into the core, each on the worker pool.
+#include "server/grpc/parameter_set_service_grpc.h"
+
+#include "server/grpc/drive_service_grpc.h"  // ContextFrom
+#include "server/grpc/status_mapping.h"
+
+namespace drivegw::server {
+namespace {
+
+// Runs fn(ctx) on the worker pool (SQLite, drive reads) and finishes from there.
+template <typename Resp, typename Fn>
+grpc::ServerUnaryReactor* Offload(WorkerPool& pool, grpc::CallbackServerContext* ctx, Resp* resp,
+                                  Fn fn) {
+  auto* reactor = ctx->DefaultReactor();
+  CallContext cc = ContextFrom(*ctx);
+  pool.Post([reactor, resp, fn = std::move(fn), cc = std::move(cc)]() mutable {
+    auto result = fn(cc);
+    if (result.ok()) *resp = *std::move(result);
+    reactor->Finish(ToGrpcStatus(result.status()));
+  });
+  return reactor;
+}
+
+}  // namespace
+
+#define DGW_PS_RPC(Method, Req, Resp)                                                             \
+  grpc::ServerUnaryReactor* ParameterSetServiceGrpc::Method(grpc::CallbackServerContext* ctx,     \
+                                                            const v1::Req* req, v1::Resp* resp) { \
+    return Offload(pool_, ctx, resp,                                                              \
+                   [this, req](const CallContext& c) { return core_.Method(*req, c); });          \
+  }
+DGW_PS_RPC(ListParameterDefinitions, ListParameterDefinitionsRequest,
+           ListParameterDefinitionsResponse)
+DGW_PS_RPC(CreateParameterSet, CreateParameterSetRequest, ParameterSet)
+DGW_PS_RPC(GetParameterSet, GetParameterSetRequest, ParameterSet)
+DGW_PS_RPC(ListParameterSets, ListParameterSetsRequest, ListParameterSetsResponse)
+DGW_PS_RPC(UpdateParameterSet, UpdateParameterSetRequest, ParameterSet)
+DGW_PS_RPC(DeleteParameterSet, DeleteParameterSetRequest, DeleteParameterSetResponse)
+DGW_PS_RPC(ListParameterSetVersions, ListParameterSetVersionsRequest,
+           ListParameterSetVersionsResponse)
+DGW_PS_RPC(GetParameterSetVersion, GetParameterSetVersionRequest, ParameterSetVersion)
+DGW_PS_RPC(CaptureParameterSet, CaptureParameterSetRequest, ParameterSet)
+DGW_PS_RPC(DiffParameterSet, DiffParameterSetRequest, DiffParameterSetResponse)
+DGW_PS_RPC(ApplyParameterSet, ApplyParameterSetRequest, Operation)
+DGW_PS_RPC(GetOperation, GetOperationRequest, Operation)
+DGW_PS_RPC(ListOperations, ListOperationsRequest, ListOperationsResponse)
+DGW_PS_RPC(ImportParameterSet, ImportParameterSetRequest, ParameterSet)
+DGW_PS_RPC(ExportParameterSet, ExportParameterSetRequest, ExportParameterSetResponse)
+#undef DGW_PS_RPC
+
+}  // namespace drivegw::server
