@@ -246,6 +246,7 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Create(const ParameterSet& set,
   if (set.family.empty()) return absl::InvalidArgumentError("parameter_set.family: empty");
   DGW_ASSIGN_OR_RETURN(const std::string values_json, ValuesToJson(set.values));
   const std::string ts = FormatTimestamp(NowMs());
+  ParameterSet result;
   DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
     DGW_ASSIGN_OR_RETURN(Statement exists,
                          db_->Prepare("SELECT 1 FROM parameter_sets WHERE name = ?1"));
@@ -268,9 +269,12 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Create(const ParameterSet& set,
     DGW_RETURN_IF_ERROR(insert.Bind(6, std::string_view(ts)));
     DGW_RETURN_IF_ERROR(insert.Bind(7, NewEtag()));
     DGW_RETURN_IF_ERROR(insert.Run());
-    return InsertVersion(*db_, set.name, 1, set.author, comment, ts, values_json);
+    DGW_RETURN_IF_ERROR(InsertVersion(*db_, set.name, 1, set.author, comment, ts, values_json));
+    // Read back inside the transaction: the caller gets this version, not a later writer's.
+    DGW_ASSIGN_OR_RETURN(result, Get(set.name));
+    return absl::OkStatus();
   }));
-  return Get(set.name);
+  return result;
 }
 
 absl::StatusOr<ParameterSet> ParameterSetRepo::Get(std::string_view name) {
@@ -319,6 +323,7 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Update(const ParameterSet& set,
   DGW_RETURN_IF_ERROR(ValidateForWrite(set));
   DGW_ASSIGN_OR_RETURN(const std::string values_json, ValuesToJson(set.values));
   const std::string ts = FormatTimestamp(NowMs());
+  ParameterSet result;
   DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
     // BEGIN IMMEDIATE holds the write lock from here, so the etag read and the write are atomic
     // even against another connection or process.
@@ -347,9 +352,12 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Update(const ParameterSet& set,
     DGW_RETURN_IF_ERROR(update.Bind(6, version));
     DGW_RETURN_IF_ERROR(update.Bind(7, NewEtag()));
     DGW_RETURN_IF_ERROR(update.Run());
-    return InsertVersion(*db_, set.name, version, set.author, comment, ts, values_json);
+    DGW_RETURN_IF_ERROR(
+        InsertVersion(*db_, set.name, version, set.author, comment, ts, values_json));
+    DGW_ASSIGN_OR_RETURN(result, Get(set.name));
+    return absl::OkStatus();
   }));
-  return Get(set.name);
+  return result;
 }
 
 absl::Status ParameterSetRepo::Delete(std::string_view name, std::string_view expected_etag) {

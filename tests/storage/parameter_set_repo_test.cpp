@@ -527,6 +527,7 @@ TEST(ParameterSetConcurrencyTest, TwoConnections_RacingUpdates_NoLostVersion) {
   t3.join();
   t4.join();
   EXPECT_EQ(errors.load(), 0);
+  ::testing::Test::RecordProperty("etag_conflicts", conflicts.load());  // how hard they raced
   auto versions = ra.ListVersions("race");
   ASSERT_TRUE(versions.ok());
   ASSERT_EQ(versions->size(), 1u + 4 * kPerThread);
