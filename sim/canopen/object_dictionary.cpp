@@ -434,7 +434,8 @@ absl::Status ObjectDictionary::OnRead(uint16_t index, uint8_t sub, ReadHook hook
   return absl::OkStatus();
 }
 
-absl::Status ObjectDictionary::OnReadInt(uint16_t index, uint8_t sub, ReadIntHook hook) {
+absl::StatusOr<ObjectDictionary::Entry*> ObjectDictionary::LookupIntegerHook(uint16_t index,
+                                                                             uint8_t sub) {
   auto e = Lookup(index, sub);
   if (!e.ok()) return absl::NotFoundError(std::string(e.status().message()));
   const DataType type = (*e)->def.type;
@@ -443,6 +444,13 @@ absl::Status ObjectDictionary::OnReadInt(uint16_t index, uint8_t sub, ReadIntHoo
                                                    ": integer hook on a ",
                                                    std::string(DataTypeName(type))));
   }
+  return e;
+}
+
+absl::Status ObjectDictionary::OnReadInt(uint16_t index, uint8_t sub, ReadIntHook hook) {
+  auto e = LookupIntegerHook(index, sub);
+  if (!e.ok()) return e.status();
+  const DataType type = (*e)->def.type;
   const std::string label = ObjectLabel(index, sub, (*e)->def.name);
   (*e)->read = [type, label, hook = std::move(hook)]() -> absl::StatusOr<std::vector<uint8_t>> {
     auto v = hook();
@@ -465,14 +473,9 @@ absl::Status ObjectDictionary::OnWrite(uint16_t index, uint8_t sub, WriteHook ho
 }
 
 absl::Status ObjectDictionary::OnWriteInt(uint16_t index, uint8_t sub, WriteIntHook hook) {
-  auto e = Lookup(index, sub);
-  if (!e.ok()) return absl::NotFoundError(std::string(e.status().message()));
+  auto e = LookupIntegerHook(index, sub);
+  if (!e.ok()) return e.status();
   const DataType type = (*e)->def.type;
-  if (!IsInteger(type)) {
-    return absl::InvalidArgumentError(absl::StrCat(ObjectLabel(index, sub, (*e)->def.name),
-                                                   ": integer hook on a ",
-                                                   std::string(DataTypeName(type))));
-  }
   // Write() has checked the length already, so decoding cannot fail here.
   (*e)->write = [type, hook = std::move(hook)](std::span<const uint8_t> bytes) {
     return hook(DecodeInteger(type, bytes).value_or(0));

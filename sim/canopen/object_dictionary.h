@@ -167,6 +167,8 @@ class ObjectDictionary : public drivegw::canopen::ObjectAccess {
   }
   absl::StatusOr<Entry*> Lookup(uint16_t index, uint8_t sub);
   absl::StatusOr<const Entry*> Lookup(uint16_t index, uint8_t sub) const;
+  // OnReadInt/OnWriteInt: the entry (NotFound if absent), refused unless its type is an integer.
+  absl::StatusOr<Entry*> LookupIntegerHook(uint16_t index, uint8_t sub);
   absl::Status CheckRange(const Entry& e, int64_t value) const;
 
   std::map<uint32_t, Entry> entries_;
