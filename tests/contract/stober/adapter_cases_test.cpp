@@ -231,7 +231,7 @@ TEST_F(WireTest, CT70_StopAndHaltAtStandstillWithZeroDecelerationAreDone) {
     const uint64_t id = Native(req);
     ASSERT_NE(id, 0u);
     const CommandInfo end = WaitFinal(id);
-    EXPECT_EQ(end.state, CommandState::kDone) << end.message;
+    EXPECT_EQ(end.state, CommandState::kDone) << end.message << Trace(sniffer_->frames(), mark);
     // I406 = 0 went out in RPDO3 before the edge: the node really saw deceleration 0; after the
     // edge I92 = 1 and never I91 = 1.
     const std::vector<Seen> all = sniffer_->Until(

@@ -34,6 +34,7 @@ namespace co = drivegw::canopen;
 using SteadyTime = std::chrono::steady_clock::time_point;
 
 inline constexpr uint8_t kNode = 21;
+inline constexpr double kCycleMs = 4;  // A150 of the simulated axis in these tests
 
 // Predefined-connection-set COB-IDs (CiA 301 §7.3.5) of the node.
 inline constexpr uint32_t kTpdo1 = 0x180 + kNode;
@@ -93,6 +94,16 @@ inline Tpdo1 DecodeTpdo1(const transport::CanFrame& f) {
 // {position actual, velocity actual} in user units.
 inline std::vector<double> DecodeTpdo2(const transport::CanFrame& f) {
   return Unpack(co::PdoKind::kTpdo, 2, f);
+}
+
+// "+1.234ms 215#1F00050000000001" per frame from index `from` on: the wire in failure messages.
+inline std::string Trace(const std::vector<Seen>& all, size_t from = 0) {
+  std::string out;
+  for (size_t i = from; i < all.size(); ++i) {
+    const auto us = std::chrono::duration_cast<std::chrono::microseconds>(all[i].at - all[from].at);
+    out += "\n  +" + std::to_string(us.count()) + "us " + transport::FormatCanFrame(all[i].frame);
+  }
+  return out;
 }
 
 // A listener on the bus: records every frame (a UDP multicast socket of its own receives what
@@ -199,6 +210,10 @@ class WireTest : public ::testing::Test {
     sniffer_ = std::make_unique<Sniffer>(bus_);
     o.node_id = kNode;
     o.can = bus_;
+    // A150 = 4 ms unless the case sets it: the adapter then holds Execute low for 8 ms (decision
+    // 1197), so a simulator thread descheduled for a few ms on a loaded machine still sees the
+    // low level in a cycle of its own (decision 1226).
+    if (!o.axis.cycle_ms) o.axis.cycle_ms = kCycleMs;
     auto server = ss::AxisServer::Start(o, SteadyClock::Instance());
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = std::move(*server);

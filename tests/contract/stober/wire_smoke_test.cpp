@@ -50,12 +50,13 @@ TEST_F(WireTest, CT01_Wire_RisingEdgeStartsLevelDoesNotRestart) {
   AtRest(80);
   EXPECT_NEAR(Sim("I80"), 80, 1e-6);
   SdoWrite("I403", 20);  // Execute stays 1: no new edge
-  // 25 A150 cycles with the level held (the node samples Execute each cycle, decision 1179).
-  std::this_thread::sleep_for(25ms);
+  // 10 A150 cycles with the level held (the node samples Execute each cycle, decision 1179).
+  std::this_thread::sleep_for(10 * std::chrono::duration<double, std::milli>(kCycleMs));
   EXPECT_NEAR(Sim("I80"), 80, 1e-6);
   EXPECT_EQ(Sim("I92"), 1);
   SdoWrite("I402", 0);
-  std::this_thread::sleep_for(5ms);  // low for ≥ one A150 cycle (1 ms)
+  // Low for ≥ one A150 cycle: three, as the adapter's own edges (decision 1197: 2 × A150).
+  std::this_thread::sleep_for(3 * std::chrono::duration<double, std::milli>(kCycleMs));
   SdoWrite("I402", 1);
   AtRest(20);
   EXPECT_NEAR(Sim("I80"), 20, 1e-6);
