@@ -17,7 +17,10 @@
 #include "adapters/linmot/linudp/factory.h"
 #include "adapters/stober/factory.h"
 #include "adapters/trinamic/factory.h"
+#include "server/core/parameter_apply.h"
+#include "server/core/parameter_set_service.h"
 #include "server/grpc/drive_service_grpc.h"
+#include "server/grpc/parameter_set_service_grpc.h"
 #include "server/grpc/worker_pool.h"
 #include "server/rest/server.h"
 #include "sim/linmot/server.h"
@@ -28,6 +31,7 @@
 #include "storage/config_repo.h"
 #include "storage/db.h"
 #include "storage/migrations.h"
+#include "storage/parameter_set_repo.h"
 
 namespace drivegw::server {
 
@@ -112,6 +116,13 @@ struct Gateway::Impl {
   std::unique_ptr<DriveServiceCore> core;
   std::unique_ptr<WorkerPool> pool;
   std::unique_ptr<DriveServiceGrpc> service;
+  // Parameter sets (issue 6): declared after the drives and the audit log they use, so the
+  // applier (which waits for running operations) is destroyed before them.
+  CatalogueList catalogues;
+  std::unique_ptr<storage::ParameterSetRepo> parameter_sets;
+  std::unique_ptr<ParameterApplier> applier;
+  std::unique_ptr<ParameterSetServiceCore> parameter_set_core;
+  std::unique_ptr<ParameterSetServiceGrpc> parameter_set_service;
   std::unique_ptr<grpc::Server> grpc_server;
   int grpc_port = 0;
   std::unique_ptr<rest::RestServer> rest;
@@ -232,6 +243,15 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   impl->core = std::make_unique<DriveServiceCore>(impl->drives, impl->audit.get());
   impl->pool = std::make_unique<WorkerPool>(kWorkerThreads);
   impl->service = std::make_unique<DriveServiceGrpc>(*impl->core, *impl->pool);
+  impl->catalogues = {linmot::linudp::LinMotParameterCatalogue(),
+                      linmot::devicenet::LinMotDevicenetParameterCatalogue(),
+                      trinamic::TrinamicParameterCatalogue(), stober::StoberParameterCatalogue()};
+  impl->parameter_sets = std::make_unique<storage::ParameterSetRepo>(*impl->db);
+  impl->applier = std::make_unique<ParameterApplier>(*impl->parameter_sets, impl->catalogues);
+  impl->parameter_set_core = std::make_unique<ParameterSetServiceCore>(
+      *impl->parameter_sets, *impl->applier, impl->catalogues, impl->drives, impl->audit.get());
+  impl->parameter_set_service =
+      std::make_unique<ParameterSetServiceGrpc>(*impl->parameter_set_core, *impl->pool);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -240,6 +260,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   builder.AddListeningPort(absl::StrCat(grpc_addr.first, ":", grpc_addr.second), grpc::InsecureServerCredentials(),
                            &impl->grpc_port);
   builder.RegisterService(impl->service.get());
+  builder.RegisterService(impl->parameter_set_service.get());
   impl->grpc_server = builder.BuildAndStart();
   if (impl->grpc_server == nullptr || impl->grpc_port == 0) {
     return absl::UnavailableError(absl::StrCat("listen.grpc: cannot listen on ", cfg.listen.grpc));
