@@ -83,8 +83,8 @@ class TrinamicCatalogue final : public ::drivegw::ParameterCatalogue {
     for (const Definition& d : definitions_) {
       if (d.id == (*p)->id) return d;
     }
-    return absl::NotFoundError(absl::StrCat("trinamic: \"", std::string(name_or_id),
-                                            "\" is not in the catalogue"));
+    return absl::NotFoundError(
+        absl::StrCat("trinamic: \"", std::string(name_or_id), "\" is not in the catalogue"));
   }
 
   absl::Status Validate(const Definition& definition, int64_t value) const override {

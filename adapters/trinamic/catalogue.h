@@ -8,7 +8,7 @@
 
 namespace drivegw::trinamic {
 
-// Single-value checks only (field range, `$17` pointer multiple of 4, L618-625); the cross-field
+// Single-value checks only (field range, the codec field's multiple-of rule); the cross-field
 // rules of CT-55 need the other values of the axis and stay with ParameterShadow::Validate,
 // which TrinamicDrive::WriteParameter applies (decision 009).
 std::shared_ptr<const drivegw::ParameterCatalogue> MakeTrinamicCatalogue();

@@ -65,10 +65,10 @@ ParameterDefinition FromSpec(const CommandSpec& set) {
   d.writable = true;
   d.has_stored_value = false;  // Set commands are volatile (§8.8, D-29)
   const CommandSpec* get = FindCommand(static_cast<uint8_t>(set.id - 1));
-  d.description = absl::StrCat(
-      set.name, " / ",
-      get != nullptr && get->documented ? get->name : std::string("no documented Get"),
-      " (linmot-devicenet.md §8.9, seed lines ", set.seed_lines, "; decision 906)");
+  d.description =
+      absl::StrCat(set.name, " / ",
+                   get != nullptr && get->documented ? get->name : std::string("no documented Get"),
+                   " (linmot-devicenet.md §8.9, seed lines ", set.seed_lines, "; decision 906)");
   return d;
 }
 
@@ -108,8 +108,8 @@ class LinMotDevicenetCatalogue final : public ParameterCatalogue {
         const CommandSpec* set = FindCommand(static_cast<uint8_t>(d.id));
         const CommandSpec* get = FindCommand(static_cast<uint8_t>(d.id - 1));
         if (EqualsIgnoreCase(text, set->key()) || EqualsIgnoreCase(text, set->name) ||
-            (get != nullptr && (EqualsIgnoreCase(text, get->key()) ||
-                                EqualsIgnoreCase(text, get->name)))) {
+            (get != nullptr &&
+             (EqualsIgnoreCase(text, get->key()) || EqualsIgnoreCase(text, get->name)))) {
           return d;
         }
       }
@@ -131,8 +131,7 @@ std::shared_ptr<const ParameterCatalogue> MakeLinMotDevicenetCatalogue() {
 }
 
 std::shared_ptr<const ParameterCatalogue> LinMotDevicenetParameterCatalogue() {
-  static const std::shared_ptr<const ParameterCatalogue> catalogue =
-      MakeLinMotDevicenetCatalogue();
+  static const std::shared_ptr<const ParameterCatalogue> catalogue = MakeLinMotDevicenetCatalogue();
   return catalogue;
 }
 

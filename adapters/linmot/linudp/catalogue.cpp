@@ -25,8 +25,8 @@ constexpr int64_t kI32Max = std::numeric_limits<int32_t>::max();
 constexpr int64_t kU32Max = std::numeric_limits<uint32_t>::max();
 
 enum class Kind : uint8_t {
-  kParameter,       // RAM and ROM value (§9.1)
-  kVariable,        // runtime value, RAM only, written by the drive (read-only)
+  kParameter,         // RAM and ROM value (§9.1)
+  kVariable,          // runtime value, RAM only, written by the drive (read-only)
   kWritableVariable,  // runtime value that motion commands / the master write (1E72h, 1EA0h)
 };
 
@@ -55,7 +55,8 @@ constexpr Row kRows[] = {
     {0x1019, "Motor Supply Voltage High", "unknown", "", kWireMin, kWireMax, P, "MC22 L4174"},
     {0x101A, "Motor Supply Voltage Too Low", "unknown", "", kWireMin, kWireMax, P, "MC22 L4177"},
     {0x101B, "Motor Supply Voltage Too High", "unknown", "", kWireMin, kWireMax, P, "MC22 L4178"},
-    {0x101D, "Regeneration resistor Enable", "bool", "", 0, 1, P, "MC22 L4198 (0 disable, 1 enable)"},
+    {0x101D, "Regeneration resistor Enable", "bool", "", 0, 1, P,
+     "MC22 L4198 (0 disable, 1 enable)"},
     {0x101E, "RR Turn On Voltage", "unknown", "", kWireMin, kWireMax, P, "MC22 L4201-4203"},
     {0x101F, "RR Turn Off Voltage", "unknown", "", kWireMin, kWireMax, P, "MC22 L4204"},
     {0x1039, "Trigger input configuration", "unknown", "", kWireMin, kWireMax, P, "MC22 L1321"},
@@ -112,8 +113,7 @@ constexpr Row kRows[] = {
      "MC22 L4064 (0 none, 1 direct, 2 inhibited, 3 delayed, 4 inhibited & delayed)"},
     {0x171B, "Brake Apply Delay Time", "unknown", "", kWireMin, kWireMax, P, "MC22 L4037"},
     {0x171C, "Brake Release Delay Time", "unknown", "", kWireMin, kWireMax, P, "MC22 L4038"},
-    {0x1721, "Quick stop deceleration", "u32", "1E-5 m/s²", 0, 0x7FFF'FFFF, P,
-     "MC22 L1427, 2086"},
+    {0x1721, "Quick stop deceleration", "u32", "1E-5 m/s²", 0, 0x7FFF'FFFF, P, "MC22 L1427, 2086"},
     {0x1798, "0V Raw Data Offset", "unknown", "", kWireMin, kWireMax, P, "MC22 L3498"},
     {0x1B8A, "Demand Position", "i32", "0.1 µm", kI32Min, kI32Max, V, "MC22 L3182"},
     {0x1B8B, "Demand Velocity", "i32", "1E-6 m/s", kI32Min, kI32Max, V, "MC15 L163"},
