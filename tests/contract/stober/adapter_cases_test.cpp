@@ -121,7 +121,7 @@ TEST_F(WireTest, CT67_SetValuesBeforeTheEdgeExecuteLowFirst) {
 
 // CT-68 (L391, L387): after a Done, a new command (here: the same, already reached position) is
 // reported DONE only after I92 was seen 0 after its edge and then 1.
-TEST_F(WireTest, CT68_NoStaleDoneSameTargetPassesThroughI92Zero) {
+TEST_F(WireTest, CT68_NoStaleDoneOrError) {
   ss::AxisServerOptions o;
   o.axis.cycle_ms = 4;
   before_drive_ = [](ss::AxisServer& s) {
@@ -153,6 +153,29 @@ TEST_F(WireTest, CT68_NoStaleDoneSameTargetPassesThroughI92Zero) {
     };
     EXPECT_TRUE(sniffer_->WaitFor(zero_then_one)) << "no TPDO1 I92 0 → 1 after the edge";
   }
+  // Likewise Error: after that Done, a denied command (target beyond I50, L227) is ERROR only
+  // after the wire showed I91 0 (with I92 0, the forced-0 cycle of CT-04) and then I91 1.
+  ASSERT_TRUE(drive_->WriteParameter(ParameterRef{Id("I50"), false}, 10).ok());
+  const size_t mark = sniffer_->size();
+  const CommandInfo denied = Move(MoveAbsolute{50, 500, 5000, 5000});
+  EXPECT_NE(denied.state, CommandState::kDone);
+  const CommandInfo end = WaitFinal(denied.id);
+  EXPECT_EQ(end.state, CommandState::kError) << end.message;
+  EXPECT_THAT(end.message, HasSubstr("I50..I51"));
+  auto clear_then_error = [&](const std::vector<Seen>& f) {
+    const std::optional<size_t> edge = NextEdge(f, mark);
+    if (!edge) return false;
+    bool clear = false;
+    for (size_t i = *edge; i < f.size(); ++i) {
+      if (f[i].frame.id != kTpdo1) continue;
+      const Tpdo1 t = DecodeTpdo1(f[i].frame);
+      if (!t.done() && !t.error()) clear = true;
+      if (clear && t.error()) return true;
+    }
+    return false;
+  };
+  EXPECT_TRUE(sniffer_->WaitFor(clear_then_error))
+      << "no TPDO1 I91 0 → 1 after the edge" << Trace(sniffer_->frames(), mark);
 }
 
 // ---------------------------------------------------------------- CT-69
@@ -266,7 +289,7 @@ TEST_F(WireTest, CT70_StopAndHaltAtStandstillWithZeroDecelerationAreDone) {
 // CiA 402-only application; what it refuses itself never reaches the bus.
 TEST_F(WireTest, CT71_LocallyRefusedCommandsProduceNoFrame) {
   Start();
-  const size_t mark = sniffer_->size();
+  const size_t mark = SyncedMark();  // Enable's control words are recorded before it
   StoberMcRequest unknown;
   unknown.command = 12;
   auto r = drive_->SendNative(unknown);

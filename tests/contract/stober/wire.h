@@ -283,6 +283,28 @@ class WireTest : public ::testing::Test {
     server_->WithAxis([&](ss::MotionCore& c) { v = *c.Read(P(param)); });
     return v;
   }
+  // A point in the sniffer's record after every frame the master sent so far: an SDO upload of
+  // `param` whose request the sniffer must see, and the master's socket delivers in order.
+  // Returns the index just after that request.
+  size_t SyncedMark(const char* param = "I10") {
+    const size_t before = sniffer_->size();
+    EXPECT_TRUE(drive_->ReadParameter(ParameterRef{Id(param), false}).ok());
+    const CanOpenAddress a = *ToCanOpen(P(param));
+    size_t mark = 0;
+    EXPECT_TRUE(sniffer_->WaitFor([&](const std::vector<Seen>& f) {
+      for (size_t i = before; i < f.size(); ++i) {
+        const transport::CanFrame& x = f[i].frame;
+        if (x.id == kSdoRx && x.dlc == 8 && x.data[0] == 0x40 && x.data[1] == (a.index & 0xFF) &&
+            x.data[2] == (a.index >> 8) && x.data[3] == a.sub_index) {
+          mark = i + 1;
+          return true;
+        }
+      }
+      return false;
+    })) << "SDO upload request of "
+        << param << " never on the bus";
+    return mark;
+  }
   // An SDO download of a bound parameter in user units (a raw CanOpenSdoRequest on the wire).
   void SdoWrite(const char* param, double value) {
     auto bytes = Encode(P(param), value);
