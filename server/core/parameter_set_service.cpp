@@ -632,6 +632,12 @@ absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::ImportParameterSet(
       return fail(FieldError("etag", absl::StrCat("is required: set '", set.name,
                                                   "' exists (import adds a version)")));
     }
+    if (r.format() == v1::PARAMETER_SET_FORMAT_CSV) {
+      // A CSV file carries values only: the set's other fields stay as they are.
+      set.model = existing->model;
+      set.description = existing->description;
+      set.target_stored = existing->target_stored;
+    }
   }
   return Store("ImportParameterSet", std::move(set), create, r.etag(), r.comment(), c);
 }

@@ -119,18 +119,20 @@ TEST_F(ParameterSetsE2eTest, Rest_CreateApplyDryRunAndRealGetOperationAudited) {
   EXPECT_EQ(Field(after.body, "value"), "300") << after.body;
 
   // Diff against the drive now: nothing differs.
-  auto diff = HttpRequest(http(), "POST", "/v1/parameterSets/feeder-slow:diff",
-                          R"({"drive": "feeder-x"})");
+  auto diff =
+      HttpRequest(http(), "POST", "/v1/parameterSets/feeder-slow:diff", R"({"drive": "feeder-x"})");
   ASSERT_EQ(diff.status, 200) << diff.body;
   EXPECT_EQ(Field(diff.body, "differing"), "0") << diff.body;
 
   // Export as CSV.
-  auto csv = HttpRequest(http(), "GET", "/v1/parameterSets/feeder-slow:export?format=PARAMETER_SET_FORMAT_CSV");
+  auto csv = HttpRequest(http(), "GET",
+                         "/v1/parameterSets/feeder-slow:export?format=PARAMETER_SET_FORMAT_CSV");
   ASSERT_EQ(csv.status, 200) << csv.body;
   EXPECT_NE(csv.body.find("$14.vmax,300"), std::string::npos) << csv.body;
 
   // Update with the etag, then the same etag again is stale: 412 naming the version.
-  const std::string update = R"({"name": "parameterSets/feeder-slow", "parameters": [{"parameter": "$14.vmax", "value": 250}]})";
+  const std::string update =
+      R"({"name": "parameterSets/feeder-slow", "parameters": [{"parameter": "$14.vmax", "value": 250}]})";
   auto ok = HttpRequest(http(), "PATCH", "/v1/parameterSets/feeder-slow?etag=" + etag, update);
   ASSERT_EQ(ok.status, 200) << ok.body;
   EXPECT_EQ(Field(ok.body, "version"), "2");
@@ -139,8 +141,9 @@ TEST_F(ParameterSetsE2eTest, Rest_CreateApplyDryRunAndRealGetOperationAudited) {
   EXPECT_NE(stale.body.find("version 2"), std::string::npos) << stale.body;
 
   // A malformed import names line and field.
-  auto bad = HttpRequest(http(), "POST", "/v1/parameterSets:import",
-                         R"({"format": "PARAMETER_SET_FORMAT_CSV", "name": "x", "family": "trinamic",
+  auto bad =
+      HttpRequest(http(), "POST", "/v1/parameterSets:import",
+                  R"({"format": "PARAMETER_SET_FORMAT_CSV", "name": "x", "family": "trinamic",
                              "content": "parameter,value\n$14.vmax,abc\n"})");
   EXPECT_EQ(bad.status, 400) << bad.body;
   EXPECT_NE(bad.body.find("line 2, field value: 'abc' is not an integer"), std::string::npos)
@@ -157,6 +160,11 @@ TEST_F(ParameterSetsE2eTest, Rest_CreateApplyDryRunAndRealGetOperationAudited) {
     EXPECT_TRUE(r.ok()) << r.status();
     return r.ok() ? r->size() : 0u;
   };
+  // The finished-apply entry is written just after the operation turns done: poll for it.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (count("ApplyParameterSet.done") < 2u && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
   EXPECT_EQ(count("CreateParameterSet"), 1u);
   EXPECT_EQ(count("UpdateParameterSet"), 2u);
   EXPECT_EQ(count("ApplyParameterSet"), 2u);

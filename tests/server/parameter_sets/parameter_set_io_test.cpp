@@ -50,7 +50,8 @@ TEST(ParameterSetIo, CsvRoundTrip) {
 }
 
 TEST(ParameterSetIo, CsvCommentsBlankLinesCrlfAndHex) {
-  auto s = ParseParameterSetCsv("# exported\r\n\r\nParameter , Value\r\n0x14BE, 0x10\r\n# x\r\n5,-3\r\n");
+  auto s = ParseParameterSetCsv(
+      "# exported\r\n\r\nParameter , Value\r\n0x14BE, 0x10\r\n# x\r\n5,-3\r\n");
   ASSERT_TRUE(s.ok()) << s.status();
   ASSERT_EQ(s->values.size(), 2u);
   EXPECT_EQ(s->values[0].parameter, "0x14BE");
@@ -83,14 +84,14 @@ INSTANTIATE_TEST_SUITE_P(
         Bad{"parameter,value\n$14.vmax,300\n#\n\n\n\n$14.amax,abc\n",
             "line 7, field value: 'abc' is not an integer"},
         Bad{"name,value\n", "line 1, field header: expected 'parameter,value'"},
-        Bad{"# only a comment\n", "field header: missing"},
-        Bad{"", "field header: missing"},
+        Bad{"# only a comment\n", "field header: missing"}, Bad{"", "field header: missing"},
         Bad{"parameter,value\n$14.vmax\n", "line 2, field value: expected 2 fields"},
         Bad{"parameter,value\n$14.vmax,1,2\n", "line 2, field (row): expected 2 fields"},
         Bad{"parameter,value\n,5\n", "line 2, field parameter: is empty"},
         Bad{"parameter,value\n$14.vmax,\n", "line 2, field value: '' is not an integer"},
         Bad{"parameter,value\n$14.vmax,1.5\n", "line 2, field value: '1.5' is not an integer"},
-        Bad{"parameter,value\nx,99999999999999999999\n", "line 2, field value: '99999999999999999999'"}));
+        Bad{"parameter,value\nx,99999999999999999999\n",
+            "line 2, field value: '99999999999999999999'"}));
 
 class JsonErrors : public ::testing::TestWithParam<Bad> {};
 TEST_P(JsonErrors, NameLineAndField) {
@@ -102,7 +103,8 @@ TEST_P(JsonErrors, NameLineAndField) {
 INSTANTIATE_TEST_SUITE_P(
     All, JsonErrors,
     ::testing::Values(
-        Bad{"{\n \"name\": \"a\",\n \"parameters\": [\n  {\"parameter\": \"$14.vmax\",\n   \"value\": \"abc\"}\n ]\n}",
+        Bad{"{\n \"name\": \"a\",\n \"parameters\": [\n  {\"parameter\": \"$14.vmax\",\n   "
+            "\"value\": \"abc\"}\n ]\n}",
             "line 5, field value: 'abc' is not an integer"},
         Bad{"{\n \"parameters\": [\n  {\"parameter\": \"p\", \"value\": 1.5}]}",
             "line 3, field value: '1.5' is not an integer"},
@@ -112,8 +114,10 @@ INSTANTIATE_TEST_SUITE_P(
         Bad{"{\"parameters\": [{\"value\": 1}]}", "line 1, field parameter: is required"},
         Bad{"{\"parameters\": [{\"parameter\": \"p\", \"valu\": 1}]}",
             "line 1, field valu: unknown field"},
-        Bad{"{\"name\": \"a\",\n\"famly\": \"x\", \"parameters\": []}", "line 2, field famly: unknown field"},
-        Bad{"{\"name\": 5, \"parameters\": []}", "line 1, field name: expected a string, got a number"},
+        Bad{"{\"name\": \"a\",\n\"famly\": \"x\", \"parameters\": []}",
+            "line 2, field famly: unknown field"},
+        Bad{"{\"name\": 5, \"parameters\": []}",
+            "line 1, field name: expected a string, got a number"},
         Bad{"{\"target_stored\": \"yes\", \"parameters\": []}",
             "field target_stored: expected true or false"},
         Bad{"{\"parameters\": {}}", "field parameters: expected an array, got an object"},

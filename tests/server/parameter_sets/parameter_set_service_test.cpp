@@ -80,10 +80,10 @@ class ParameterSetServiceTest : public ::testing::Test {
     audit_ = std::make_unique<storage::AuditLog>(*db_);
     catalogues_.push_back(std::make_shared<FakeCatalogue>());
     applier_ = std::make_unique<ParameterApplier>(*repo_, catalogues_);
-    x1_ = std::make_shared<MapDrive>("x1", "fake",
-                                     std::map<uint32_t, int64_t>{{1, 1}, {2, 2}, {3, 3}, {4, 4}, {5, 5}});
-    x2_ = std::make_shared<MapDrive>("x2", "fake",
-                                     std::map<uint32_t, int64_t>{{1, 1}, {2, 2}, {3, 3}, {4, 4}, {5, 5}});
+    x1_ = std::make_shared<MapDrive>(
+        "x1", "fake", std::map<uint32_t, int64_t>{{1, 1}, {2, 2}, {3, 3}, {4, 4}, {5, 5}});
+    x2_ = std::make_shared<MapDrive>(
+        "x2", "fake", std::map<uint32_t, int64_t>{{1, 1}, {2, 2}, {3, 3}, {4, 4}, {5, 5}});
     other_ = std::make_shared<MapDrive>("o1", "other", std::map<uint32_t, int64_t>{{1, 1}});
     core_ = std::make_unique<ParameterSetServiceCore>(
         *repo_, *applier_, catalogues_, std::vector<std::shared_ptr<Drive>>{x1_, x2_, other_},
@@ -117,6 +117,17 @@ class ParameterSetServiceTest : public ::testing::Test {
     EXPECT_TRUE(r.ok()) << r.status();
     return r.ok() ? *r : std::vector<storage::AuditRecord>{};
   }
+  // The finished-operation entry is written by the applier's on_done, which runs just after the
+  // stored operation turns done: poll for it.
+  std::vector<storage::AuditRecord> WaitAudit(const std::string& action, size_t n) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    auto records = Audit(action);
+    while (records.size() < n && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      records = Audit(action);
+    }
+    return records;
+  }
   v1::Operation WaitDone(const std::string& name) {
     v1::GetOperationRequest g;
     g.set_name(name);
@@ -131,7 +142,7 @@ class ParameterSetServiceTest : public ::testing::Test {
     return {};
   }
 
-  storage::TempDir dir_;
+  storage::testing::TempDir dir_;
   std::unique_ptr<storage::Db> db_;
   std::unique_ptr<storage::ParameterSetRepo> repo_;
   std::unique_ptr<storage::AuditLog> audit_;
@@ -192,11 +203,10 @@ TEST_F(ParameterSetServiceTest, CreateValidationNamesFieldParameterAndLimit) {
   auto s = core_->CreateParameterSet(r, ctx_);
   ASSERT_EQ(s.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(Msg(s.status()), HasSubstr("p1: 1001 is outside 0..1000"));
-  EXPECT_THAT(Fields(s.status()),
-              ::testing::ElementsAre("parameter_set.parameters[0].value",
-                                     "parameter_set.parameters[1].parameter",
-                                     "parameter_set.parameters[2].value",
-                                     "parameter_set.parameters[3].parameter"));
+  EXPECT_THAT(Fields(s.status()), ::testing::ElementsAre("parameter_set.parameters[0].value",
+                                                         "parameter_set.parameters[1].parameter",
+                                                         "parameter_set.parameters[2].value",
+                                                         "parameter_set.parameters[3].parameter"));
   // Refused creates are audited too, with the error.
   auto audit = Audit("CreateParameterSet");
   ASSERT_EQ(audit.size(), 1u);
@@ -320,7 +330,8 @@ TEST_F(ParameterSetServiceTest, CaptureNewSetThenNewVersion) {
   EXPECT_EQ(v2->parameters(1).value(), 444);
   // A drive of another family is refused naming the field.
   c.set_drive("o1");
-  EXPECT_THAT(Fields(core_->CaptureParameterSet(c, ctx_).status()), ::testing::ElementsAre("drive"));
+  EXPECT_THAT(Fields(core_->CaptureParameterSet(c, ctx_).status()),
+              ::testing::ElementsAre("drive"));
   c.set_drive("drives/zz");
   EXPECT_EQ(core_->CaptureParameterSet(c, ctx_).status().code(), absl::StatusCode::kNotFound);
 }
@@ -366,7 +377,8 @@ TEST_F(ParameterSetServiceTest, DiffAgainstDriveAndVersions) {
 
   v1::DiffParameterSetRequest none;
   none.set_name(s.name());
-  EXPECT_THAT(Fields(core_->DiffParameterSet(none, ctx_).status()), ::testing::ElementsAre("other"));
+  EXPECT_THAT(Fields(core_->DiffParameterSet(none, ctx_).status()),
+              ::testing::ElementsAre("other"));
 }
 
 TEST_F(ParameterSetServiceTest, ApplyDryRunThenRealReturnsOperationAtOnceAndAudits) {
@@ -404,7 +416,7 @@ TEST_F(ParameterSetServiceTest, ApplyDryRunThenRealReturnsOperationAtOnceAndAudi
 
   // Started and finished entries for both applies.
   EXPECT_EQ(Audit("ApplyParameterSet").size(), 2u);
-  const auto finished = Audit("ApplyParameterSet.done");
+  const auto finished = WaitAudit("ApplyParameterSet.done", 2);
   ASSERT_EQ(finished.size(), 2u);
   EXPECT_EQ(finished[0].drive, "x1,x2");
   EXPECT_THAT(finished[0].request_json, HasSubstr("pre_image"));
@@ -454,7 +466,8 @@ TEST_F(ParameterSetServiceTest, ImportExportRoundTripJsonAndCsv) {
   back.set_content(csv->content() + "p1,5\n");
   back.set_name("imported");
   back.set_family("fake");
-  EXPECT_THAT(Fields(core_->ImportParameterSet(back, ctx_).status()), ::testing::ElementsAre("etag"));
+  EXPECT_THAT(Fields(core_->ImportParameterSet(back, ctx_).status()),
+              ::testing::ElementsAre("etag"));
   back.set_etag(s->etag());
   auto v2 = core_->ImportParameterSet(back, ctx_);
   ASSERT_TRUE(v2.ok()) << v2.status();
@@ -499,9 +512,11 @@ TEST_F(ParameterSetServiceTest, ImportErrorsNameLineFieldParameterAndLimit) {
 
   im.set_content("parameter,value\np1,5\n");
   im.set_family("");
-  EXPECT_THAT(Fields(core_->ImportParameterSet(im, ctx_).status()), ::testing::ElementsAre("family"));
+  EXPECT_THAT(Fields(core_->ImportParameterSet(im, ctx_).status()),
+              ::testing::ElementsAre("family"));
   im.set_format(v1::PARAMETER_SET_FORMAT_UNSPECIFIED);
-  EXPECT_THAT(Fields(core_->ImportParameterSet(im, ctx_).status()), ::testing::ElementsAre("format"));
+  EXPECT_THAT(Fields(core_->ImportParameterSet(im, ctx_).status()),
+              ::testing::ElementsAre("format"));
   EXPECT_EQ(Audit("ImportParameterSet").size(), 4u);
 }
 
