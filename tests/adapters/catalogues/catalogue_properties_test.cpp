@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <limits>
-#include <ostream>
 #include <memory>
+#include <ostream>
 #include <set>
 #include <string>
 
