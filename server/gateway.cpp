@@ -272,6 +272,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   ro.port = http_addr.second;
   ro.channel = impl->grpc_server->InProcessChannel(grpc::ChannelArguments());
   ro.openapi_json = std::string(kOpenApiJson);
+  ro.more_services = {"drivegw.v1.ParameterSetService"};
   ro.static_dir = options.static_dir;
   auto rest = rest::RestServer::Start(std::move(ro));
   if (!rest.ok()) {

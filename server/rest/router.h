@@ -77,8 +77,9 @@ class ResponseSink {
 struct RouterOptions {
   std::shared_ptr<grpc::Channel> channel;  // the gRPC server's InProcessChannel
   std::string service = "drivegw.v1.DriveService";
-  // Further services served from the same channel (issue 6: parameter sets, decision 011).
-  std::vector<std::string> more_services{"drivegw.v1.ParameterSetService"};
+  // Further services served from the same channel (the gateway adds ParameterSetService,
+  // decision 011).
+  std::vector<std::string> more_services;
   std::string openapi_json;                       // served at GET /openapi.json
   std::string static_dir;                         // served at GET /... when set
   std::chrono::milliseconds call_timeout{30000};  // deadline of unary calls

@@ -518,6 +518,7 @@ absl::StatusOr<std::unique_ptr<RestServer>> RestServer::Start(RestOptions option
   RouterOptions router_options;
   router_options.channel = options.channel;
   router_options.openapi_json = options.openapi_json;
+  router_options.more_services = options.more_services;
   router_options.static_dir = options.static_dir;
   auto router = Router::Create(std::move(router_options));
   if (!router.ok()) return router.status();

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 
@@ -21,6 +22,7 @@ struct RestOptions {
   uint16_t port = 8080;                    // 0: ephemeral, read back with RestServer::port()
   std::shared_ptr<grpc::Channel> channel;  // the gRPC server's InProcessChannel (required)
   std::string openapi_json;                // served at GET /openapi.json
+  std::vector<std::string> more_services;  // RouterOptions::more_services
   std::string static_dir;                  // served at GET / ... (empty: none)
   size_t body_limit = 1 << 20;             // larger request bodies get 413
   // Deadline for a whole request once the connection is idle, and for every write.

@@ -20,6 +20,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       *PathTemplate::Parse("/v1/{name=drives/*}:sendNativeCommand"),
       *PathTemplate::Parse("/v1/{name=drives/*/commands/*}"),
       *PathTemplate::Parse("/v1/{name=drives/*}/parameters/{parameter_id}:write"),
+      // ParameterSetService (decision 011): a collection verb next to {name=parameterSets/*}
+      // verbs, a nested collection with a second variable, and a field path variable.
+      *PathTemplate::Parse("/v1/parameterSets:import"),
+      *PathTemplate::Parse("/v1/{name=parameterSets/*}:apply"),
+      *PathTemplate::Parse("/v1/{name=parameterSets/*}/versions/{version}"),
+      *PathTemplate::Parse("/v1/{parameter_set.name=parameterSets/*}"),
+      *PathTemplate::Parse("/v1/{name=operations/*}"),
+      *PathTemplate::Parse("/v1/families/{family}/parameterDefinitions"),
       *PathTemplate::Parse("/static/{path=**}"),
   };
   // As a request path ("/" in front so most inputs reach the segment matcher).
