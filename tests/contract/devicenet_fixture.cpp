@@ -20,6 +20,7 @@
 #include "sim/linmot_devicenet/device.h"
 #include "sim/linmot_devicenet/server.h"
 #include "tests/contract/family_fixture.h"
+#include "tests/support/wait_status.h"
 
 namespace drivegw::contract {
 namespace {
@@ -144,17 +145,9 @@ class DeviceNetContract : public ::testing::Test {
   }
   DriveStatus WaitUntil(const std::function<bool(const DriveStatus&)>& pred,
                         std::chrono::steady_clock::duration timeout = kWait) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    DriveStatus s = drive_->GetStatus();
-    while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return s;
+    return test_support::WaitStatus(*drive_, pred, timeout);
   }
-  CommandInfo WaitFinal(uint64_t id) {
-    WaitUntil([&](const DriveStatus&) { return IsFinal(drive_->GetCommand(id)->state); });
-    return *drive_->GetCommand(id);
-  }
+  CommandInfo WaitFinal(uint64_t id) { return test_support::WaitCommandFinal(*drive_, id, kWait); }
   void Enable() {
     auto r = drive_->Enable();
     ASSERT_TRUE(r.ok()) << r.status();

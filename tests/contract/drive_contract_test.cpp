@@ -13,6 +13,7 @@
 #include "adapters/core/drive.h"
 #include "adapters/core/registry.h"
 #include "tests/contract/family_fixture.h"
+#include "tests/support/wait_status.h"
 
 namespace drivegw::contract {
 namespace {
@@ -44,17 +45,9 @@ class DriveContract : public ::testing::TestWithParam<FamilyCase> {
 
   DriveStatus WaitUntil(const std::function<bool(const DriveStatus&)>& pred,
                         std::chrono::steady_clock::duration timeout = kWait) {
-    const SteadyTime deadline = std::chrono::steady_clock::now() + timeout;
-    DriveStatus s = drive_->GetStatus();
-    while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return s;
+    return test_support::WaitStatus(*drive_, pred, timeout);
   }
-  CommandInfo WaitFinal(uint64_t id) {
-    WaitUntil([&](const DriveStatus&) { return IsFinal(drive_->GetCommand(id)->state); });
-    return *drive_->GetCommand(id);
-  }
+  CommandInfo WaitFinal(uint64_t id) { return test_support::WaitCommandFinal(*drive_, id, kWait); }
   void Enable() {
     auto r = drive_->Enable();
     ASSERT_TRUE(r.ok()) << r.status();

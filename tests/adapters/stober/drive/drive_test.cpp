@@ -15,6 +15,7 @@
 #include "adapters/stober/factory.h"
 #include "adapters/stober/object_map.h"
 #include "sim/stober/server.h"
+#include "tests/support/wait_status.h"
 
 namespace drivegw::stober {
 namespace {
@@ -87,17 +88,9 @@ class StoberDriveTest : public ::testing::Test {
 
   DriveStatus WaitUntil(const std::function<bool(const DriveStatus&)>& pred,
                         std::chrono::steady_clock::duration timeout = 5s) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    DriveStatus s = drive_->GetStatus();
-    while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return s;
+    return test_support::WaitStatus(*drive_, pred, timeout);
   }
-  CommandInfo WaitFinal(uint64_t id) {
-    WaitUntil([&](const DriveStatus&) { return IsFinal(drive_->GetCommand(id)->state); });
-    return *drive_->GetCommand(id);
-  }
+  CommandInfo WaitFinal(uint64_t id) { return test_support::WaitCommandFinal(*drive_, id, 5s); }
   void Enable() {
     auto r = drive_->Enable();
     ASSERT_TRUE(r.ok()) << r.status();

@@ -16,6 +16,7 @@
 #include "adapters/core/drive.h"
 #include "adapters/stober/factory.h"
 #include "sim/stober/server.h"
+#include "tests/support/wait_status.h"
 
 namespace drivegw::stober {
 namespace {
@@ -78,17 +79,9 @@ class StoberVcanTest : public ::testing::Test {
 
   DriveStatus WaitUntil(const std::function<bool(const DriveStatus&)>& pred,
                         std::chrono::steady_clock::duration timeout = 15s) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    DriveStatus s = drive_->GetStatus();
-    while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return s;
+    return test_support::WaitStatus(*drive_, pred, timeout);
   }
-  CommandInfo WaitFinal(uint64_t id) {
-    WaitUntil([&](const DriveStatus&) { return IsFinal(drive_->GetCommand(id)->state); });
-    return *drive_->GetCommand(id);
-  }
+  CommandInfo WaitFinal(uint64_t id) { return test_support::WaitCommandFinal(*drive_, id, 15s); }
   void EnableAndMove(double target) {
     auto en = drive_->Enable();
     ASSERT_TRUE(en.ok()) << en.status();

@@ -19,6 +19,7 @@
 #include "adapters/transport/udp_multicast_channel.h"
 #include "sim/linmot_devicenet/device.h"
 #include "sim/linmot_devicenet/server.h"
+#include "tests/support/wait_status.h"
 
 namespace drivegw::linmot::devicenet {
 namespace {
@@ -168,17 +169,9 @@ class DnDriveTest : public ::testing::Test {
 
   DriveStatus WaitUntil(const std::function<bool(const DriveStatus&)>& pred,
                         std::chrono::steady_clock::duration timeout = kWait) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    DriveStatus s = drive_->GetStatus();
-    while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return s;
+    return test_support::WaitStatus(*drive_, pred, timeout);
   }
-  CommandInfo WaitFinal(uint64_t id) {
-    WaitUntil([&](const DriveStatus&) { return IsFinal(drive_->GetCommand(id)->state); });
-    return *drive_->GetCommand(id);
-  }
+  CommandInfo WaitFinal(uint64_t id) { return test_support::WaitCommandFinal(*drive_, id, kWait); }
   void Enable() {
     auto r = drive_->Enable();
     ASSERT_TRUE(r.ok()) << r.status();
