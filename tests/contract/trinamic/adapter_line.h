@@ -26,6 +26,7 @@
 #include "adapters/trinamic/factory.h"
 #include "sim/trinamic/can_server.h"
 #include "sim/trinamic/server.h"
+#include "tests/support/wait_status.h"
 
 namespace drivegw::trinamic::adapter_contract {
 
@@ -103,18 +104,11 @@ inline std::optional<size_t> IndexOf(const std::vector<Bytes>& words, const Byte
 
 inline DriveStatus WaitStatus(Drive* d, const std::function<bool(const DriveStatus&)>& pred,
                               std::chrono::milliseconds timeout = 5000ms) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  DriveStatus s = d->GetStatus();
-  while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
-    s = d->WaitForStatus(s.sequence, deadline);
-  }
-  return s;
+  return test_support::WaitStatus(*d, pred, timeout);
 }
 
 inline CommandInfo WaitFinal(Drive* d, uint64_t id, std::chrono::milliseconds timeout = 5000ms) {
-  WaitStatus(
-      d, [&](const DriveStatus&) { return IsFinal(d->GetCommand(id)->state); }, timeout);
-  return *d->GetCommand(id);
+  return test_support::WaitCommandFinal(*d, id, timeout);
 }
 
 // Waits (bounded, real time) until `pred` holds; returns its last value.

@@ -24,6 +24,7 @@
 #include "adapters/trinamic/parameters.h"
 #include "sim/trinamic/can_server.h"
 #include "sim/trinamic/server.h"
+#include "tests/support/wait_status.h"
 
 namespace drivegw::trinamic {
 namespace {
@@ -94,12 +95,7 @@ std::vector<Bytes> NonQueries(const std::vector<Bytes>& words) {
 
 DriveStatus WaitStatus(Drive* d, const std::function<bool(const DriveStatus&)>& pred,
                        std::chrono::milliseconds timeout = 5000ms) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  DriveStatus s = d->GetStatus();
-  while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
-    s = d->WaitForStatus(s.sequence, deadline);
-  }
-  return s;
+  return test_support::WaitStatus(*d, pred, timeout);
 }
 
 class TrinamicDriveTest : public ::testing::Test {
@@ -139,9 +135,7 @@ class TrinamicDriveTest : public ::testing::Test {
     return WaitStatus(d, pred, timeout);
   }
   static CommandInfo WaitFinal(Drive* d, uint64_t id, std::chrono::milliseconds timeout = 5000ms) {
-    WaitUntil(
-        d, [&](const DriveStatus&) { return IsFinal(d->GetCommand(id)->state); }, timeout);
-    return *d->GetCommand(id);
+    return test_support::WaitCommandFinal(*d, id, timeout);
   }
   static void Enable(Drive* d) {
     auto r = d->Enable();
