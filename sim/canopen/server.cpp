@@ -2,10 +2,10 @@
 // injection for a simulated CANopen slave (decisions 1133, 1134).
 #include "sim/canopen/server.h"
 
-#include <condition_variable>
 #include <utility>
 
 #include "adapters/canopen/emcy.h"
+#include "sim/common/can_receive_loop.h"
 
 namespace drivegw::sim::canopen {
 namespace {
@@ -112,20 +112,11 @@ void SlaveServer::Reboot() {
 }
 
 void SlaveServer::Run() {
-  std::mutex backoff_mu;
-  std::condition_variable backoff_cv;
-  while (!stop_.load()) {
-    auto received = channel_->Receive(kIdleWait);
-    if (!received.ok()) {
-      {
-        std::lock_guard lock(mu_);
-        ++counters_.receive_errors;
-      }
-      // A broken channel must not become a busy loop (real time; Stop still joins promptly).
-      std::unique_lock lock(backoff_mu);
-      backoff_cv.wait_for(lock, std::chrono::milliseconds(20), [this] { return stop_.load(); });
-      continue;
-    }
+  auto count_error = [this] {
+    std::lock_guard lock(mu_);
+    ++counters_.receive_errors;
+  };
+  RunCanReceiveLoop(*channel_, kIdleWait, stop_, count_error, [this](const auto& received) {
     std::lock_guard lock(mu_);
     const TimePoint now = clock_.Now();
     // Leaving bus-off is a communication error for 1029h, reported as EMCY 8140h once the
@@ -137,14 +128,14 @@ void SlaveServer::Run() {
       node_->CommunicationError(drivegw::canopen::emcy_code::kRecoveredFromBusOff);
     }
     bus_state_ = bus;
-    if (received->has_value()) {
+    if (received.has_value()) {
       ++counters_.frames_in;
-      node_->OnFrame(**received, now);
+      node_->OnFrame(*received, now);
     } else {
       node_->Advance(now);
     }
     FlushLocked();
-  }
+  });
 }
 
 }  // namespace drivegw::sim::canopen

@@ -4,11 +4,11 @@
 #include "sim/trinamic/can_server.h"
 
 #include <algorithm>
-#include <condition_variable>
 #include <span>
 #include <utility>
 
 #include "adapters/trinamic/codec.h"
+#include "sim/common/can_receive_loop.h"
 
 namespace drivegw::sim::trinamic {
 namespace {
@@ -276,28 +276,19 @@ void TrinamicCanServer::HandleFrameLocked(const transport::CanFrame& frame) {
 }
 
 void TrinamicCanServer::Run() {
-  std::mutex backoff_mu;
-  std::condition_variable backoff_cv;
-  while (!stop_.load()) {
-    auto received = channel_->Receive(kIdleWait);
-    if (!received.ok()) {
-      {
-        std::lock_guard lock(mu_);
-        ++counters_.receive_errors;
-      }
-      // A broken channel must not become a busy loop (real time; Stop still joins promptly).
-      std::unique_lock lock(backoff_mu);
-      backoff_cv.wait_for(lock, std::chrono::milliseconds(20), [this] { return stop_.load(); });
-      continue;
-    }
+  auto count_error = [this] {
+    std::lock_guard lock(mu_);
+    ++counters_.receive_errors;
+  };
+  RunCanReceiveLoop(*channel_, kIdleWait, stop_, count_error, [this](const auto& received) {
     std::lock_guard lock(mu_);
     AdvanceLocked();
-    if (received->has_value()) HandleFrameLocked(**received);
+    if (received.has_value()) HandleFrameLocked(*received);
     if (pty_) {
       auto bytes = pty_->ReadAvailable(Duration::zero());
       if (bytes.ok() && !bytes->empty()) SerialLocked(*bytes);
     }
-  }
+  });
 }
 
 }  // namespace drivegw::sim::trinamic
