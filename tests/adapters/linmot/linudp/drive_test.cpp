@@ -17,6 +17,7 @@
 #include "adapters/linmot/mc/warn_word.h"
 #include "sim/linmot/parameters.h"
 #include "sim/linmot/server.h"
+#include "tests/support/wait_status.h"
 
 namespace drivegw::linmot::linudp {
 namespace {
@@ -103,16 +104,10 @@ class LinMotUdpDriveTest : public ::testing::Test {
   // Waits (WaitForStatus, deadline) until `pred` holds for a published status.
   DriveStatus WaitUntil(const std::function<bool(const DriveStatus&)>& pred,
                         std::chrono::steady_clock::duration timeout = kWait) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    DriveStatus s = drive_->GetStatus();
-    while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return s;
+    return test_support::WaitStatus(*drive_, pred, timeout);
   }
   CommandInfo WaitFinal(uint64_t id, std::chrono::steady_clock::duration timeout = kWait) {
-    WaitUntil([&](const DriveStatus&) { return IsFinal(drive_->GetCommand(id)->state); }, timeout);
-    return *drive_->GetCommand(id);
+    return test_support::WaitCommandFinal(*drive_, id, timeout);
   }
   void EnableOrDie() {
     auto r = drive_->Enable();
@@ -345,8 +340,7 @@ TEST_F(LinMotUdpDriveTest, MoveNotAccepted_ErrorAndNeverExecutedLater) {
   EXPECT_FALSE(sim.motion_active);
   EXPECT_NEAR(sim.demand_position_mm, before, 1e-9);  // the block was disarmed to a NOP
   // The count ring goes on: the next command is accepted normally.
-  EXPECT_EQ(WaitFinal(MoveOrDie(MoveAbsolute{30, 500, 5000, 5000}).id).state,
-            CommandState::kDone);
+  EXPECT_EQ(WaitFinal(MoveOrDie(MoveAbsolute{30, 500, 5000, 5000}).id).state, CommandState::kDone);
 }
 
 TEST_F(LinMotUdpDriveTest, Home_ActiveThenDoneHomed) {

@@ -14,6 +14,7 @@
 #include "adapters/core/drive.h"
 #include "adapters/trinamic/factory.h"
 #include "sim/trinamic/can_server.h"
+#include "tests/support/wait_status.h"
 
 namespace drivegw::trinamic {
 namespace {
@@ -70,12 +71,7 @@ class TrinamicVcanTest : public ::testing::Test {
     if (sim_) sim_->Stop();
   }
   DriveStatus WaitUntil(const std::function<bool(const DriveStatus&)>& pred) {
-    const auto deadline = std::chrono::steady_clock::now() + 15s;
-    DriveStatus s = drive_->GetStatus();
-    while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return s;
+    return test_support::WaitStatus(*drive_, pred, 15s);
   }
 
   std::unique_ptr<TrinamicCanServer> sim_;

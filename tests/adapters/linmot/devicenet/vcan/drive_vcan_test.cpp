@@ -11,6 +11,7 @@
 #include "adapters/linmot/devicenet/drive.h"
 #include "adapters/linmot/devicenet/factory.h"
 #include "sim/linmot_devicenet/server.h"
+#include "tests/support/wait_status.h"
 
 namespace drivegw::linmot::devicenet {
 namespace {
@@ -59,12 +60,7 @@ class DnDriveVcanTest : public ::testing::Test {
   }
 
   DriveStatus WaitUntil(const std::function<bool(const DriveStatus&)>& pred) {
-    const auto deadline = std::chrono::steady_clock::now() + 20s;
-    DriveStatus s = drive_->GetStatus();
-    while (!pred(s) && std::chrono::steady_clock::now() < deadline) {
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return s;
+    return test_support::WaitStatus(*drive_, pred, 20s);
   }
 
   const char* iface_ = nullptr;
@@ -73,7 +69,8 @@ class DnDriveVcanTest : public ::testing::Test {
 };
 
 TEST_F(DnDriveVcanTest, BringUpEnableHomeMove_OnKernelCan) {
-  const DriveStatus online = WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
+  const DriveStatus online =
+      WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
   ASSERT_NE(online.state, DriveState::kOffline) << "no poll response on " << iface_;
 
   auto en = drive_->Enable();
@@ -82,7 +79,8 @@ TEST_F(DnDriveVcanTest, BringUpEnableHomeMove_OnKernelCan) {
 
   auto home = drive_->Home();
   ASSERT_TRUE(home.ok()) << home.status();
-  const DriveStatus homed = WaitUntil([](const DriveStatus& s) { return s.homed && s.state == DriveState::kEnabled; });
+  const DriveStatus homed =
+      WaitUntil([](const DriveStatus& s) { return s.homed && s.state == DriveState::kEnabled; });
   ASSERT_TRUE(homed.homed);
 
   auto mv = drive_->Move(MoveAbsolute{40, 500, 5000, 5000});
