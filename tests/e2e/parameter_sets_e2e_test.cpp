@@ -78,6 +78,12 @@ class ParameterSetsE2eTest : public ::testing::Test {
 };
 
 TEST_F(ParameterSetsE2eTest, Rest_CreateApplyDryRunAndRealGetOperationAudited) {
+  // One OpenAPI document for both services (merged at build time).
+  auto openapi = HttpRequest(http(), "GET", "/openapi.json");
+  ASSERT_EQ(openapi.status, 200);
+  EXPECT_NE(openapi.body.find("/v1/parameterSets:import"), std::string::npos);
+  EXPECT_NE(openapi.body.find("/v1/drives"), std::string::npos);
+
   // The catalogue is served per family.
   auto defs = HttpRequest(http(), "GET", "/v1/families/trinamic/parameterDefinitions?filter=vmax");
   ASSERT_EQ(defs.status, 200) << defs.body;
