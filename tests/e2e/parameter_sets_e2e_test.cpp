@@ -2,6 +2,7 @@
 // simulated Trinamic SIXpack axis feeder-x (pty): create -> apply (dry run, then real) -> poll the
 // operation until done -> the drive holds the value; a stale etag is 412; the audit log has the
 // create and both apply entries.
+#include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -11,6 +12,9 @@
 #include <string>
 #include <thread>
 
+#include "drivegw/v1/parameter_sets.grpc.pb.h"
+#include "google/rpc/error_details.pb.h"
+#include "google/rpc/status.pb.h"
 #include "server/gateway.h"
 #include "storage/audit_log.h"
 #include "storage/db.h"
@@ -176,6 +180,47 @@ TEST_F(ParameterSetsE2eTest, Rest_CreateApplyDryRunAndRealGetOperationAudited) {
   EXPECT_EQ(count("ApplyParameterSet"), 2u);
   EXPECT_EQ(count("ApplyParameterSet.done"), 2u);
   EXPECT_EQ(count("ImportParameterSet"), 1u);
+}
+
+TEST_F(ParameterSetsE2eTest, Grpc_CaptureFromDriveThenStaleEtagIsFailedPreconditionWithEtagDetail) {
+  auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(gw_->grpc_port()),
+                                     grpc::InsecureChannelCredentials());
+  auto stub = v1::ParameterSetService::NewStub(channel);
+
+  v1::CaptureParameterSetRequest capture;
+  capture.set_name("parameterSets/feeder-now");
+  capture.set_drive("drives/feeder-x");
+  capture.add_parameters("$14.vmax");
+  v1::ParameterSet set;
+  {
+    grpc::ClientContext ctx;
+    const grpc::Status s = stub->CaptureParameterSet(&ctx, capture, &set);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+  }
+  EXPECT_EQ(set.family(), "trinamic");
+  ASSERT_EQ(set.parameters_size(), 1);
+  EXPECT_EQ(set.parameters(0).parameter(), "$14.vmax");
+
+  v1::UpdateParameterSetRequest update;
+  *update.mutable_parameter_set() = set;
+  update.mutable_parameter_set()->mutable_parameters(0)->set_value(100);
+  update.set_etag(set.etag());
+  v1::ParameterSet v2;
+  {
+    grpc::ClientContext ctx;
+    ASSERT_TRUE(stub->UpdateParameterSet(&ctx, update, &v2).ok());
+  }
+  grpc::ClientContext ctx;
+  const grpc::Status stale = stub->UpdateParameterSet(&ctx, update, &v2);
+  ASSERT_EQ(stale.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(stale.error_message().find("version 2"), std::string::npos) << stale.error_message();
+  google::rpc::Status rich;
+  ASSERT_TRUE(rich.ParseFromString(stale.error_details()));
+  ASSERT_EQ(rich.details_size(), 1);
+  google::rpc::PreconditionFailure pf;
+  ASSERT_TRUE(rich.details(0).UnpackTo(&pf));
+  EXPECT_EQ(pf.violations(0).type(), "ETAG");
+  EXPECT_EQ(pf.violations(0).subject(), "parameterSets/feeder-now");
 }
 
 }  // namespace
