@@ -21,6 +21,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
 #include "drivegw/v1/drive.pb.h"
@@ -867,6 +868,22 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
     if (auto s = SetPath(msg.get(), *fields, *value); !s.ok()) {
       bad_request(absl::StrCat("query parameter ", *key), s.message(), name);
       return;
+    }
+  }
+
+  // 4. If-Match (RFC 9110 §13.1.1) as the request's `etag` when nothing else set it; the
+  // entity tag's quotes and a weak "W/" prefix are dropped (our etags are opaque strings).
+  if (!request.if_match.empty()) {
+    const auto* etag = input->FindFieldByName("etag");
+    if (etag != nullptr && !etag->is_repeated() &&
+        etag->type() == pb::FieldDescriptor::TYPE_STRING &&
+        msg->GetReflection()->GetString(*msg, etag).empty()) {
+      absl::string_view tag = absl::StripAsciiWhitespace(Av(request.if_match));
+      absl::ConsumePrefix(&tag, "W/");
+      if (tag.size() >= 2 && tag.front() == '"' && tag.back() == '"') {
+        tag = tag.substr(1, tag.size() - 2);
+      }
+      msg->GetReflection()->SetString(msg.get(), etag, std::string(tag));
     }
   }
 

@@ -26,6 +26,9 @@ struct HttpRequest {
   std::string target;  // origin-form: "/v1/drives:watch?names=x1&max_rate_hz=10"
   std::string body;
   std::string peer;  // client "ip:port", forwarded as x-drivegw-source
+  // If-Match header ("" if none): fills a request's top-level `etag` field when the body and
+  // query left it empty (conditional updates, decision 011).
+  std::string if_match;
 };
 
 struct HttpResponse {

@@ -150,6 +150,18 @@ TEST_F(ParameterSetsE2eTest, Rest_CreateApplyDryRunAndRealGetOperationAudited) {
   EXPECT_EQ(stale.status, 412) << stale.body;
   EXPECT_NE(stale.body.find("version 2"), std::string::npos) << stale.body;
 
+  // If-Match carries the etag too: a stale one is 412, the current one deletes the set.
+  auto del = [&](const std::string& tag) {
+    rest::test_support::HttpClient client(static_cast<uint16_t>(http()));
+    EXPECT_TRUE(client.SendRequest("DELETE", "/v1/parameterSets/feeder-slow", "",
+                                   "If-Match: \"" + tag + "\"\r\n"));
+    auto r = client.Read();
+    return r ? r->status : 0;
+  };
+  EXPECT_EQ(del(etag), 412);
+  EXPECT_EQ(del(Field(ok.body, "etag")), 200);
+  EXPECT_EQ(HttpRequest(http(), "GET", "/v1/parameterSets/feeder-slow").status, 404);
+
   // A malformed import names line and field.
   auto bad =
       HttpRequest(http(), "POST", "/v1/parameterSets:import",
@@ -180,6 +192,7 @@ TEST_F(ParameterSetsE2eTest, Rest_CreateApplyDryRunAndRealGetOperationAudited) {
   EXPECT_EQ(count("ApplyParameterSet"), 2u);
   EXPECT_EQ(count("ApplyParameterSet.done"), 2u);
   EXPECT_EQ(count("ImportParameterSet"), 1u);
+  EXPECT_EQ(count("DeleteParameterSet"), 2u);
 }
 
 TEST_F(ParameterSetsE2eTest, Grpc_CaptureFromDriveThenStaleEtagIsFailedPreconditionWithEtagDetail) {
