@@ -89,6 +89,8 @@ void AxisDevice::Restart() {
   last_flags_ = 0;
   last_status_word_ = 0;
   last_plc_ = 0;
+  sampled_execute_ = execute_seen_low_ = false;
+  // The fault-injection switches are the test's, not the drive's: they survive a reset.
 }
 
 absl::Status AxisDevice::AddObject(SlaveNode& node, const so::ObjectBinding& b) {
@@ -183,9 +185,36 @@ void AxisDevice::Tick(SlaveNode& node, Duration dt) {
     const Duration cycle = FromSeconds(std::max(cycle_ms, 0.125) / 1000.0);
     if (carry_ < cycle) break;
     carry_ -= cycle;
+    SampleExecute();
     core_->Advance(1);
     AfterCycle(node);
   }
+}
+
+void AxisDevice::OnRpdoWritten(SlaveNode& node, uint16_t number) {
+  (void)node;
+  (void)number;
+  // Any RPDO may carry I402 or the control word's Execute bit (both feed I402); the value after
+  // the whole frame is what the input image held (decision 1182). SDO writes are not latched.
+  if (core_->Read(P("I402")).value_or(0) == 0) execute_seen_low_ = true;
+}
+
+void AxisDevice::SampleExecute() {
+  const bool execute = core_->Read(P("I402")).value_or(0) != 0;
+  const bool low_between = !sampled_execute_ || execute_seen_low_;
+  if (execute && low_between && (ignore_execute_ || drop_next_edge_)) {
+    // Fault injection: the edge is lost; the core keeps seeing Execute low until the bus
+    // writes it again, as if the frame carrying the edge had never arrived.
+    (void)core_->Write(P("I402"), 0);
+    drop_next_edge_ = false;
+    ++dropped_edges_;
+    sampled_execute_ = false;
+    execute_seen_low_ = false;
+    return;
+  }
+  if (execute_seen_low_) core_->LatchExecuteLow();
+  execute_seen_low_ = false;
+  sampled_execute_ = execute;
 }
 
 void AxisDevice::AfterCycle(SlaveNode& node) {

@@ -47,6 +47,9 @@ class AxisDevice : public canopen::DeviceModel {
 
   absl::Status Configure(canopen::SlaveNode& node) override;
   void Tick(canopen::SlaveNode& node, Duration dt) override;
+  // Input latch (decision 1182): Execute written 0 by an RPDO since the previous cycle counts as
+  // seen low at the next one, so low + high read in one burst still give one rising edge.
+  void OnRpdoWritten(canopen::SlaveNode& node, uint16_t number) override;
   void OnResetApplication(canopen::SlaveNode& node) override;
 
   MotionCore& core() { return *core_; }
@@ -60,12 +63,18 @@ class AxisDevice : public canopen::DeviceModel {
   // Forces the hardware limit switch signal (nullopt: follow the simulated position); the EMCY
   // follows from the next cycle's I441/I442.
   void ForceLimitSwitch(bool positive, std::optional<bool> active);
+  // Execute edges the axis does not take (decision 1182): every edge while `ignore` is set, or
+  // only the next one. The suppressed edge leaves Execute low in the core.
+  void SetIgnoreExecute(bool ignore) { ignore_execute_ = ignore; }
+  void DropNextExecuteEdge() { drop_next_edge_ = true; }
+  uint64_t dropped_edges() const { return dropped_edges_; }
 
  private:
   absl::Status AddObject(canopen::SlaveNode& node, const drivegw::stober::ObjectBinding& b);
   static absl::StatusOr<std::unique_ptr<MotionCore>> MakeCore(const AxisDeviceOptions& options);
   void Restart();
   void AfterCycle(canopen::SlaveNode& node);
+  void SampleExecute();  // input latch and edge suppression, right before a core cycle
 
   AxisDeviceOptions options_;
   std::unique_ptr<MotionCore> core_;
@@ -78,6 +87,12 @@ class AxisDevice : public canopen::DeviceModel {
   uint32_t last_flags_ = 0;
   uint16_t last_status_word_ = 0;
   int last_plc_ = 0;
+  // Execute input (decision 1182).
+  bool sampled_execute_ = false;   // I402 at the previous core cycle
+  bool execute_seen_low_ = false;  // an RPDO wrote I402 = 0 since the previous core cycle
+  bool ignore_execute_ = false;
+  bool drop_next_edge_ = false;
+  uint64_t dropped_edges_ = 0;
 };
 
 }  // namespace drivegw::sim::stober

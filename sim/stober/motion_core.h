@@ -123,6 +123,9 @@ class MotionCore {
 
   // Runs `cycles` motion-core cycles of A150 each.
   void Advance(int cycles = 1);
+  // The next cycle samples Execute as if it had been low at the previous one: the device's
+  // fieldbus input latch (sim/stober/axis_device.h, decision 1182) saw a low level in between.
+  void LatchExecuteLow() { previous_execute_ = false; }
 
   // --- Fault injection and simulated inputs -------------------------------------------------
   // Force a limit-switch / reference-switch signal (nullopt = follow the simulated position).

@@ -55,4 +55,16 @@ void AxisServer::SetHeartbeatLoss(bool lost) { slave_->SetHeartbeatLoss(lost); }
 void AxisServer::SetSilent(bool silent) { slave_->SetSilent(silent); }
 void AxisServer::Reboot() { slave_->Reboot(); }
 
+void AxisServer::SetIgnoreExecute(bool ignore) {
+  slave_->WithNode([&](canopen::SlaveNode&) { device_->SetIgnoreExecute(ignore); });
+}
+void AxisServer::DropNextExecuteEdge() {
+  slave_->WithNode([&](canopen::SlaveNode&) { device_->DropNextExecuteEdge(); });
+}
+uint64_t AxisServer::dropped_execute_edges() {
+  uint64_t n = 0;
+  slave_->WithNode([&](canopen::SlaveNode&) { n = device_->dropped_edges(); });
+  return n;
+}
+
 }  // namespace drivegw::sim::stober

@@ -60,6 +60,10 @@ class AxisServer {
   void SetHeartbeatLoss(bool lost);
   void SetSilent(bool silent);
   void Reboot();
+  // Execute edges not taken by the axis (decision 1182): all while set, or only the next one.
+  void SetIgnoreExecute(bool ignore);
+  void DropNextExecuteEdge();
+  uint64_t dropped_execute_edges();
 
  private:
   explicit AxisServer(std::unique_ptr<AxisDevice> device) : device_(std::move(device)) {}

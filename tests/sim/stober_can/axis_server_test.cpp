@@ -311,6 +311,73 @@ TEST_F(StoberCanTest, MoveAbsoluteThroughTheDefaultPdoLayout) {
   ASSERT_TRUE(RunUntil(at(-40))) << "no Done at -40";
 }
 
+// Decision 1182: Execute low and high read by the slave in one burst (no A150 cycle between)
+// still give one rising edge when they came by RPDO (input latch); a level that never went low
+// gives none, and SDO writes are sampled without the latch (decision 1179).
+TEST_F(StoberCanTest, ExecuteLowAndHighInOneCycleAreLatchedForRpdos) {
+  Start();
+  for (const so::PdoLayout& l : so::DefaultPdoLayout()) {
+    const co::PdoMapping mapping = l.Mapping();
+    ASSERT_TRUE(master_->ConfigurePdo(kNode, l.kind, l.number, l.comm, mapping, Deadline()).ok());
+  }
+  StartNode();
+  ASSERT_TRUE(SendRpdo(1, {0x0F, 1, 100, 1}).ok());
+  ASSERT_TRUE(WaitRpdosApplied(1));
+  ASSERT_TRUE(
+      RunUntil([&] { return rec_.actual && std::abs(rec_.actual->position - 100) < 1e-3; }));
+  Step(10ms);
+  // SDO: low and high within one cycle are sampled as high, high → no edge.
+  ASSERT_TRUE(WriteParam("I403", 50).ok());
+  ASSERT_TRUE(WriteParam("I402", 0).ok());
+  ASSERT_TRUE(WriteParam("I402", 1).ok());
+  Step(50ms);
+  EXPECT_EQ(*ReadParam("I89"), 2);
+  EXPECT_DOUBLE_EQ(*ReadParam("A545"), 100);
+  // RPDO with Execute still high: the level never went low, no edge.
+  ASSERT_TRUE(SendRpdo(1, {0x0F, 1, 60, 1}).ok());
+  ASSERT_TRUE(WaitRpdosApplied(2));
+  Step(50ms);
+  EXPECT_EQ(*ReadParam("I89"), 2);
+  EXPECT_DOUBLE_EQ(*ReadParam("A545"), 100);
+  // RPDO low then high with no cycle between (the clock does not move): one edge.
+  ASSERT_TRUE(SendRpdo(1, {0x0F, 1, 60, 0}).ok());
+  ASSERT_TRUE(SendRpdo(1, {0x0F, 1, -40, 1}).ok());
+  ASSERT_TRUE(WaitRpdosApplied(4));
+  ASSERT_TRUE(RunUntil([&] { return rec_.actual && std::abs(rec_.actual->position + 40) < 1e-3; }))
+      << "the latched low gave no edge";
+}
+
+// Fault injection for the gateway's acceptance deadline (decision 1182): a dropped edge leaves
+// the axis at rest with Execute low in the core; the next edge is taken again.
+TEST_F(StoberCanTest, DroppedAndIgnoredExecuteEdges) {
+  Start();
+  for (const so::PdoLayout& l : so::DefaultPdoLayout()) {
+    const co::PdoMapping mapping = l.Mapping();
+    ASSERT_TRUE(master_->ConfigurePdo(kNode, l.kind, l.number, l.comm, mapping, Deadline()).ok());
+  }
+  StartNode();
+  server_->DropNextExecuteEdge();
+  ASSERT_TRUE(SendRpdo(1, {0x0F, 1, 30, 1}).ok());
+  ASSERT_TRUE(WaitRpdosApplied(1));
+  Step(50ms);
+  EXPECT_EQ(server_->dropped_execute_edges(), 1u);
+  EXPECT_EQ(*ReadParam("I89"), 2);
+  EXPECT_DOUBLE_EQ(*ReadParam("A545"), 0);
+  server_->SetIgnoreExecute(true);
+  ASSERT_TRUE(SendRpdo(1, {0x0F, 1, 30, 0}).ok());
+  ASSERT_TRUE(SendRpdo(1, {0x0F, 1, 30, 1}).ok());
+  ASSERT_TRUE(WaitRpdosApplied(3));
+  Step(50ms);
+  EXPECT_EQ(server_->dropped_execute_edges(), 2u);
+  EXPECT_DOUBLE_EQ(*ReadParam("A545"), 0);
+  server_->SetIgnoreExecute(false);
+  ASSERT_TRUE(SendRpdo(1, {0x0F, 1, 30, 0}).ok());
+  ASSERT_TRUE(SendRpdo(1, {0x0F, 1, 30, 1}).ok());
+  ASSERT_TRUE(WaitRpdosApplied(5));
+  ASSERT_TRUE(RunUntil([&] { return rec_.actual && std::abs(rec_.actual->position - 30) < 1e-3; }));
+  EXPECT_EQ(server_->dropped_execute_edges(), 2u);
+}
+
 TEST_F(StoberCanTest, HeartbeatFromProducerTimeAndInjectedLoss) {
   Start();
   ASSERT_TRUE(master_->ConfigureHeartbeatProducer(kNode, 100, Deadline()).ok());
