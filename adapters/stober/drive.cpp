@@ -22,6 +22,7 @@ constexpr Duration kRetryConfigure = 500ms;  // node absent: probe again (decisi
 constexpr Duration kWorkerTick = 20ms;
 constexpr Duration kMinExecuteLow = 3ms;  // decision 1197 (1179: ≥ one A150 cycle)
 constexpr Duration kEdgeFallback = 10ms;
+constexpr int kAcceptCycles = 4;  // decision 1207: A150/SYNC periods added to timeouts.accept
 constexpr Duration kResetRetry = 100ms;      // a fault reset edge not taken is repeated     // the
                                              // simulated node advances at least every 5 ms
 constexpr double kJerkPerAcceleration = 10;  // jerk = 10/s × acceleration (decision 1198)
@@ -833,25 +834,47 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
   demand_reached_ = false;
   demand_target_.reset();
   if (start.command == mc::kMoveAbsolute) demand_target_ = start.position;
-  tracker_->edge_sent = clock_.Now();
-  if (absl::Status s = SendRpdoLocked(1); !s.ok()) {
-    EndTrackerLocked(CommandState::kError, std::string(s.message()));
-    return s;
-  }
-  const TimePoint edge = tracker_->edge_sent;
   auto mine = [&] { return tracker_ && tracker_->id == info.id; };
-  WaitLocked(lock, edge + std::max<Duration>(3 * cycle_, kEdgeFallback),
-             [&] { return !mine() || tracker_->counted; });
-  if (mine() && !tracker_->counted && OnlineLocked()) {
-    // No status change after the edge: the node has cycled since, evaluate what it shows.
-    tracker_->counted = true;
-    EvaluateTrackerLocked(clock_.Now());
+  auto busy = [&] { return GetCommand(info.id)->state == CommandState::kBusy; };
+  // decision 1207: the node shows the start (I92/I91 = 0 cycle, I89, I83) within
+  // timeouts.accept + a few A150 after the edge, or the edge was not taken.
+  const Duration window = config().timeouts.accept + kAcceptCycles * cycle_;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    if (attempt > 0) {
+      // One re-edge after the usual low time (decision 1197); the handle stays the same.
+      WaitLocked(lock, execute_low_at_ + std::max<Duration>(2 * cycle_, kMinExecuteLow),
+                 [&] { return !mine() || !busy(); });
+      if (!mine() || !busy() || !OnlineLocked()) break;
+      ++counters_.execute_retries;
+      tracker_->counted = false;
+      image_.execute = true;
+    }
+    tracker_->edge_sent = clock_.Now();
+    if (absl::Status s = SendRpdoLocked(1); !s.ok()) {
+      EndTrackerLocked(CommandState::kError, std::string(s.message()));
+      return s;
+    }
+    const TimePoint edge = tracker_->edge_sent;
+    WaitLocked(lock, edge + std::max<Duration>(3 * cycle_, kEdgeFallback),
+               [&] { return !mine() || tracker_->counted; });
+    if (mine() && !tracker_->counted && OnlineLocked()) {
+      // No status change after the edge: the node has cycled since, evaluate what it shows.
+      tracker_->counted = true;
+      EvaluateTrackerLocked(clock_.Now());
+    }
+    image_.execute = false;
+    (void)SendRpdoLocked(1);
+    execute_low_at_ = clock_.Now();
+    WaitLocked(lock, edge + window, [&] { return !busy(); });
+    if (!mine() || !busy() || !OnlineLocked()) break;
   }
-  image_.execute = false;
-  (void)SendRpdoLocked(1);
-  execute_low_at_ = clock_.Now();
-  WaitLocked(lock, clock_.Now() + config().timeouts.accept,
-             [&] { return GetCommand(info.id)->state != CommandState::kBusy; });
+  if (mine() && busy() && OnlineLocked()) {
+    EndTrackerLocked(
+        CommandState::kError,
+        absl::StrCat("drive did not take the Execute edge of ", start.kind, " within ",
+                     std::chrono::duration_cast<std::chrono::milliseconds>(window).count(),
+                     " ms (stober-motion.md §2.1)"));
+  }
   PublishLocked();
   return *GetCommand(info.id);
 }

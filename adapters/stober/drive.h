@@ -34,6 +34,7 @@ struct StoberDriveCounters {
   uint64_t bootups = 0;  // boot-up messages after the first configuration (reboots)
   uint64_t heartbeat_losses = 0;
   uint64_t emcy = 0;
+  uint64_t execute_retries = 0;  // Execute edges repeated because the node did not take one (1207)
 };
 
 // The RPDO images the drive keeps (every RPDO carries all its fields, so the unchanged ones are

@@ -158,6 +158,46 @@ TEST_F(StoberDriveTest, EnableMoveAbsoluteAndRelativeEndExactly) {
   EXPECT_EQ(WaitFinal(again.id).state, CommandState::kDone);
 }
 
+// Decision 1207: an Execute edge the node never takes ends the command ERROR after one re-edge,
+// within timeouts.accept + a few A150 per edge, and Move returns that handle; the next command
+// works once the node takes edges again.
+TEST_F(StoberDriveTest, ExecuteEdgeNeverTakenEndsErrorAfterOneRetry) {
+  Start();
+  Enable();
+  Referenced();
+  server_->SetIgnoreExecute(true);
+  const auto t0 = std::chrono::steady_clock::now();
+  const CommandInfo m = Move(MoveAbsolute{30, 500, 5000, 5000});
+  const auto took = std::chrono::steady_clock::now() - t0;
+  EXPECT_EQ(m.state, CommandState::kError);
+  EXPECT_THAT(m.message, HasSubstr("did not take the Execute edge of MoveAbsolute within"));
+  EXPECT_THAT(m.message, HasSubstr("stober-motion.md §2.1"));
+  EXPECT_EQ(server_->dropped_execute_edges(), 2u);
+  EXPECT_EQ(drive_->counters().execute_retries, 1u);
+  // Two edges, each bounded by accept + 4 A150 + the low time: far below a second.
+  EXPECT_LT(took, 2 * (config_.timeouts.accept + 100ms));
+  EXPECT_EQ(drive_->GetCommand(m.id)->state, CommandState::kError);
+  EXPECT_EQ(drive_->GetStatus().state, DriveState::kEnabled);
+  server_->SetIgnoreExecute(false);
+  const CommandInfo ok = Move(MoveAbsolute{30, 500, 5000, 5000});
+  EXPECT_EQ(WaitFinal(ok.id).state, CommandState::kDone) << drive_->GetCommand(ok.id)->message;
+  EXPECT_NEAR(AtRest(30).position_mm, 30, 1e-6);
+}
+
+// Decision 1207: the first edge lost, the re-edge is taken: the command ends normally.
+TEST_F(StoberDriveTest, LostExecuteEdgeIsRepeatedOnce) {
+  Start();
+  Enable();
+  Referenced();
+  server_->DropNextExecuteEdge();
+  const CommandInfo m = Move(MoveAbsolute{-25, 500, 5000, 5000});
+  EXPECT_NE(m.state, CommandState::kBusy) << m.message;
+  EXPECT_EQ(WaitFinal(m.id).state, CommandState::kDone) << drive_->GetCommand(m.id)->message;
+  EXPECT_NEAR(AtRest(-25).position_mm, -25, 1e-6);
+  EXPECT_EQ(server_->dropped_execute_edges(), 1u);
+  EXPECT_EQ(drive_->counters().execute_retries, 1u);
+}
+
 TEST_F(StoberDriveTest, DisableAndReEnable) {
   Start();
   Enable();
