@@ -1,0 +1,445 @@
+// Curve sets: one row per set pointing at its newest immutable version, optimistic concurrency by
+// etag, curves as one JSON array per version (decision 411; same scheme as decision 410).
+#include "storage/curve_set_repo.h"
+
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "adapters/core/status.h"
+#include "storage/audit_log.h"
+
+namespace drivegw::storage {
+namespace {
+
+using nlohmann::json;
+using std::chrono::milliseconds;
+using std::chrono::system_clock;
+using LM = LinMotParametricCurve;
+
+constexpr size_t kMaxNameLength = 128;
+constexpr int kDefaultLimit = 100;
+constexpr const char* kKindPositionTime = "position_time";
+constexpr const char* kKindLinMot = "linmot";
+constexpr const char* kYUnitPosition = "position_0.1um";  // linmot-mc.md §7 L1001
+
+Time NowMs() { return std::chrono::floor<milliseconds>(system_clock::now()); }
+
+// 128 random bits as 32 hex digits, as parameter sets do (decision 410): an old etag never
+// matches by accident, not even after delete + create of the same name.
+std::string NewEtag() {
+  thread_local std::mt19937_64 engine{[] {
+    std::random_device rd;
+    std::seed_seq seq{rd(), rd(), rd(), rd(), rd(), rd(), rd(), rd()};
+    return std::mt19937_64(seq);
+  }()};
+  return absl::StrFormat("%016x%016x", engine(), engine());
+}
+
+absl::Status ValidateName(std::string_view name) {
+  if (name.empty() || name.size() > kMaxNameLength) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("curve_set.name: length ", name.size(), " is outside 1..", kMaxNameLength));
+  }
+  for (size_t i = 0; i < name.size(); ++i) {
+    const char c = name[i];
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+                    c == '.' || c == '_' || c == '-';
+    if (!ok) {
+      return absl::InvalidArgumentError(absl::StrCat("curve_set.name: '", std::string(name),
+                                                     "' has a character outside ",
+                                                     "[A-Za-z0-9._-] at index ", i));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateForWrite(const CurveSet& set) {
+  DGW_RETURN_IF_ERROR(ValidateName(set.name));
+  return ValidateCurveSetShape(set);
+}
+
+std::string SetLabel(std::string_view name) {
+  return absl::StrCat("curve set '", std::string(name), "'");
+}
+
+absl::Status NotFoundSet(std::string_view name) {
+  return absl::NotFoundError(absl::StrCat(SetLabel(name), " not found"));
+}
+
+Time ReadTime(const Statement& stmt, int column) {
+  // Rows are only written by this repo, so the text always parses; fall back to the epoch.
+  return ParseTimestamp(stmt.ColumnText(column)).value_or(Time{});
+}
+
+// ---- JSON --------------------------------------------------------------------------------------
+
+json CurveToJson(const Curve& c) {
+  json j = {{"name", c.name}, {"description", c.description}};
+  if (const auto* pt = std::get_if<PositionTimeCurve>(&c.shape)) {
+    j["kind"] = kKindPositionTime;
+    j["time_step_s"] = pt->time_step_s;
+    j["positions_mm"] = pt->positions_mm;
+  } else {
+    const auto& lm = std::get<LM>(c.shape);
+    j["kind"] = kKindLinMot;
+    j["curve_id"] = lm.curve_id;
+    j["x_length_s"] = lm.x_length_s;
+    j["y_unit"] = kYUnitPosition;
+    j["points"] = lm.points;
+    j["offset_mm"] = lm.offset_mm;
+    j["amplitude_scale_pct"] = lm.amplitude_scale_pct;
+    j["time_scale_pct"] = lm.time_scale_pct;
+  }
+  return j;
+}
+
+absl::Status Bad(std::string_view context, std::string_view why) {
+  return absl::DataLossError(absl::StrCat("storage: stored curves of ", std::string(context),
+                                          " are malformed: ", std::string(why)));
+}
+
+bool GetString(const json& obj, const char* key, std::string& out) {
+  const auto it = obj.find(key);
+  if (it == obj.end() || !it->is_string()) return false;
+  out = it->get<std::string>();
+  return true;
+}
+
+bool GetDouble(const json& obj, const char* key, double& out) {
+  const auto it = obj.find(key);
+  if (it == obj.end() || !it->is_number()) return false;
+  out = it->get<double>();
+  return true;
+}
+
+bool IsInt32(const json& v) {
+  if (v.is_number_unsigned()) {
+    return v.get<uint64_t>() <= static_cast<uint64_t>(std::numeric_limits<int32_t>::max());
+  }
+  if (!v.is_number_integer()) return false;
+  const int64_t n = v.get<int64_t>();
+  return n >= std::numeric_limits<int32_t>::min() && n <= std::numeric_limits<int32_t>::max();
+}
+
+absl::StatusOr<Curve> CurveFromJson(const json& e, const std::string& at,
+                                    std::string_view context) {
+  if (!e.is_object()) return Bad(context, absl::StrCat(at, " is not an object"));
+  Curve c;
+  std::string kind;
+  if (!GetString(e, "name", c.name)) {
+    return Bad(context, absl::StrCat(at, ".name is missing or not a string"));
+  }
+  GetString(e, "description", c.description);  // optional
+  if (!GetString(e, "kind", kind)) {
+    return Bad(context, absl::StrCat(at, ".kind is missing or not a string"));
+  }
+  if (kind == kKindPositionTime) {
+    PositionTimeCurve pt;
+    if (!GetDouble(e, "time_step_s", pt.time_step_s)) {
+      return Bad(context, absl::StrCat(at, ".time_step_s is missing or not a number"));
+    }
+    const auto ps = e.find("positions_mm");
+    if (ps == e.end() || !ps->is_array()) {
+      return Bad(context, absl::StrCat(at, ".positions_mm is missing or not an array"));
+    }
+    for (size_t i = 0; i < ps->size(); ++i) {
+      if (!(*ps)[i].is_number()) {
+        return Bad(context, absl::StrCat(at, ".positions_mm[", i, "] is not a number"));
+      }
+      pt.positions_mm.push_back((*ps)[i].get<double>());
+    }
+    c.shape = std::move(pt);
+    return c;
+  }
+  if (kind != kKindLinMot) {
+    return Bad(context, absl::StrCat(at, ".kind '", kind, "' is not ", kKindPositionTime, " or ",
+                                     kKindLinMot));
+  }
+  LM lm;
+  const auto id = e.find("curve_id");
+  if (id == e.end() || !IsInt32(*id)) {
+    return Bad(context, absl::StrCat(at, ".curve_id is missing or not an integer"));
+  }
+  lm.curve_id = id->get<int>();
+  std::string unit;
+  if (!GetString(e, "y_unit", unit) || unit != kYUnitPosition) {
+    return Bad(context, absl::StrCat(at, ".y_unit is not '", kYUnitPosition, "'"));
+  }
+  for (auto [key, field] :
+       {std::pair{"x_length_s", &lm.x_length_s}, std::pair{"offset_mm", &lm.offset_mm},
+        std::pair{"amplitude_scale_pct", &lm.amplitude_scale_pct},
+        std::pair{"time_scale_pct", &lm.time_scale_pct}}) {
+    if (!GetDouble(e, key, *field)) {
+      return Bad(context, absl::StrCat(at, ".", key, " is missing or not a number"));
+    }
+  }
+  const auto ps = e.find("points");
+  if (ps == e.end() || !ps->is_array()) {
+    return Bad(context, absl::StrCat(at, ".points is missing or not an array"));
+  }
+  for (size_t i = 0; i < ps->size(); ++i) {
+    if (!IsInt32((*ps)[i])) {
+      return Bad(context, absl::StrCat(at, ".points[", i, "] is not a 32-bit integer"));
+    }
+    lm.points.push_back((*ps)[i].get<int32_t>());
+  }
+  c.shape = std::move(lm);
+  return c;
+}
+
+// ---- rows --------------------------------------------------------------------------------------
+
+// The join of a set with its newest version; ReadSet() reads these columns in this order.
+constexpr const char* kSetColumns =
+    "SELECT s.name, s.description, s.created_at, s.updated_at, s.version, s.etag, v.author, "
+    "v.curves_json FROM curve_sets s "
+    "JOIN curve_set_versions v ON v.set_name = s.name AND v.version = s.version";
+
+absl::StatusOr<StoredCurveSet> ReadSet(const Statement& stmt) {
+  StoredCurveSet s;
+  s.set.name = stmt.ColumnText(0);
+  s.set.description = stmt.ColumnText(1);
+  s.created_at = ReadTime(stmt, 2);
+  s.updated_at = ReadTime(stmt, 3);
+  s.version = stmt.ColumnInt(4);
+  s.etag = stmt.ColumnText(5);
+  s.author = stmt.ColumnText(6);
+  DGW_ASSIGN_OR_RETURN(s.set.curves,
+                       CurvesFromJson(stmt.ColumnText(7),
+                                      absl::StrCat(SetLabel(s.set.name), " version ", s.version)));
+  return s;
+}
+
+constexpr const char* kVersionColumns =
+    "SELECT version, author, comment, created_at, curves_json FROM curve_set_versions";
+
+absl::StatusOr<CurveSetVersion> ReadVersion(const Statement& stmt, std::string_view name) {
+  CurveSetVersion v;
+  v.version = stmt.ColumnInt(0);
+  v.author = stmt.ColumnText(1);
+  v.comment = stmt.ColumnText(2);
+  v.created_at = ReadTime(stmt, 3);
+  DGW_ASSIGN_OR_RETURN(
+      v.curves,
+      CurvesFromJson(stmt.ColumnText(4), absl::StrCat(SetLabel(name), " version ", v.version)));
+  return v;
+}
+
+struct Head {
+  int version = 0;
+  std::string etag;
+};
+
+// The current version and etag of `name`, or NotFound. Runs inside the caller's lock/transaction.
+absl::StatusOr<Head> ReadHead(Db& db, std::string_view name) {
+  DGW_ASSIGN_OR_RETURN(Statement stmt,
+                       db.Prepare("SELECT version, etag FROM curve_sets WHERE name = ?1"));
+  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
+  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+  if (!row) return NotFoundSet(name);
+  return Head{stmt.ColumnInt(0), stmt.ColumnText(1)};
+}
+
+absl::Status CheckEtag(const Head& head, std::string_view name, std::string_view expected) {
+  if (expected.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("etag: empty for ", SetLabel(name), " (updates and deletes are conditional)"));
+  }
+  if (head.etag != expected) {
+    // HTTP 412: the client read an older version; it must re-read and retry.
+    return absl::FailedPreconditionError(
+        absl::StrCat("etag mismatch: ", SetLabel(name), " is at version ", head.version));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status InsertVersion(Db& db, std::string_view name, int version, std::string_view author,
+                           std::string_view comment, const std::string& ts,
+                           const std::string& curves_json) {
+  DGW_ASSIGN_OR_RETURN(Statement stmt,
+                       db.Prepare("INSERT INTO curve_set_versions (set_name, version, author, "
+                                  "comment, created_at, curves_json) VALUES (?1, ?2, ?3, ?4, ?5, "
+                                  "?6)"));
+  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
+  DGW_RETURN_IF_ERROR(stmt.Bind(2, version));
+  DGW_RETURN_IF_ERROR(stmt.Bind(3, author));
+  DGW_RETURN_IF_ERROR(stmt.Bind(4, comment));
+  DGW_RETURN_IF_ERROR(stmt.Bind(5, std::string_view(ts)));
+  DGW_RETURN_IF_ERROR(stmt.Bind(6, std::string_view(curves_json)));
+  return stmt.Run();
+}
+
+}  // namespace
+
+absl::StatusOr<std::string> CurvesToJson(const std::vector<Curve>& curves) {
+  json out = json::array();
+  for (const Curve& c : curves) out.push_back(CurveToJson(c));
+  try {
+    // dump() throws type_error 316 on invalid UTF-8 in a name or description.
+    return out.dump();
+  } catch (const json::exception& e) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("curve_set.curves: text is not valid UTF-8 (", e.what(), ")"));
+  }
+}
+
+absl::StatusOr<std::vector<Curve>> CurvesFromJson(std::string_view text, std::string_view context) {
+  const json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) return Bad(context, "not JSON");
+  if (!j.is_array()) return Bad(context, "not an array");
+  std::vector<Curve> out;
+  out.reserve(j.size());
+  for (size_t i = 0; i < j.size(); ++i) {
+    DGW_ASSIGN_OR_RETURN(Curve c, CurveFromJson(j[i], absl::StrCat("curves[", i, "]"), context));
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+absl::StatusOr<StoredCurveSet> CurveSetRepo::Create(const CurveSet& set, std::string_view author,
+                                                    std::string_view comment) {
+  DGW_RETURN_IF_ERROR(ValidateForWrite(set));
+  DGW_ASSIGN_OR_RETURN(const std::string curves_json, CurvesToJson(set.curves));
+  const std::string ts = FormatTimestamp(NowMs());
+  StoredCurveSet result;
+  DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
+    DGW_ASSIGN_OR_RETURN(Statement exists,
+                         db_->Prepare("SELECT 1 FROM curve_sets WHERE name = ?1"));
+    DGW_RETURN_IF_ERROR(exists.Bind(1, std::string_view(set.name)));
+    DGW_ASSIGN_OR_RETURN(const bool taken, exists.Step());
+    if (taken) {
+      return absl::AlreadyExistsError(
+          absl::StrCat("curve_set.name: '", set.name, "' already exists"));
+    }
+    DGW_ASSIGN_OR_RETURN(Statement insert,
+                         db_->Prepare("INSERT INTO curve_sets (name, description, created_at, "
+                                      "updated_at, version, etag) VALUES (?1, ?2, ?3, ?3, 1, ?4)"));
+    DGW_RETURN_IF_ERROR(insert.Bind(1, std::string_view(set.name)));
+    DGW_RETURN_IF_ERROR(insert.Bind(2, std::string_view(set.description)));
+    DGW_RETURN_IF_ERROR(insert.Bind(3, std::string_view(ts)));
+    DGW_RETURN_IF_ERROR(insert.Bind(4, NewEtag()));
+    DGW_RETURN_IF_ERROR(insert.Run());
+    DGW_RETURN_IF_ERROR(InsertVersion(*db_, set.name, 1, author, comment, ts, curves_json));
+    // Read back inside the transaction: the caller gets this version, not a later writer's.
+    DGW_ASSIGN_OR_RETURN(result, Get(set.name));
+    return absl::OkStatus();
+  }));
+  return result;
+}
+
+absl::StatusOr<StoredCurveSet> CurveSetRepo::Get(std::string_view name) {
+  auto lock = db_->Lock();
+  DGW_ASSIGN_OR_RETURN(Statement stmt,
+                       db_->Prepare(absl::StrCat(kSetColumns, " WHERE s.name = ?1")));
+  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
+  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+  if (!row) return NotFoundSet(name);
+  return ReadSet(stmt);
+}
+
+absl::StatusOr<std::vector<StoredCurveSet>> CurveSetRepo::List(const CurveSetQuery& query) {
+  if (query.limit < 0 || query.limit > CurveSetQuery::kMaxLimit) {
+    return absl::InvalidArgumentError(absl::StrCat("curve_set_query.limit: ", query.limit,
+                                                   " is outside 0..", CurveSetQuery::kMaxLimit));
+  }
+  const int limit = query.limit == 0 ? kDefaultLimit : query.limit;
+  std::string sql(kSetColumns);
+  int next = 1;
+  int after_index = 0;
+  if (query.after_name) absl::StrAppend(&sql, " WHERE s.name > ?", after_index = next++);
+  // BINARY collation: byte order, the same order clients see and page by.
+  absl::StrAppend(&sql, " ORDER BY s.name LIMIT ?", next);
+
+  auto lock = db_->Lock();
+  DGW_ASSIGN_OR_RETURN(Statement stmt, db_->Prepare(sql));
+  if (after_index) DGW_RETURN_IF_ERROR(stmt.Bind(after_index, std::string_view(*query.after_name)));
+  DGW_RETURN_IF_ERROR(stmt.Bind(next, limit));
+  std::vector<StoredCurveSet> out;
+  while (true) {
+    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+    if (!row) break;
+    DGW_ASSIGN_OR_RETURN(StoredCurveSet s, ReadSet(stmt));
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+absl::StatusOr<StoredCurveSet> CurveSetRepo::Update(const CurveSet& set,
+                                                    std::string_view expected_etag,
+                                                    std::string_view author,
+                                                    std::string_view comment) {
+  DGW_RETURN_IF_ERROR(ValidateForWrite(set));
+  DGW_ASSIGN_OR_RETURN(const std::string curves_json, CurvesToJson(set.curves));
+  const std::string ts = FormatTimestamp(NowMs());
+  StoredCurveSet result;
+  DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
+    // BEGIN IMMEDIATE holds the write lock from here: the etag read and the write are atomic
+    // even against another connection or process.
+    DGW_ASSIGN_OR_RETURN(const Head head, ReadHead(*db_, set.name));
+    DGW_RETURN_IF_ERROR(CheckEtag(head, set.name, expected_etag));
+    const int version = head.version + 1;
+    DGW_ASSIGN_OR_RETURN(Statement update,
+                         db_->Prepare("UPDATE curve_sets SET description = ?2, updated_at = ?3, "
+                                      "version = ?4, etag = ?5 WHERE name = ?1"));
+    DGW_RETURN_IF_ERROR(update.Bind(1, std::string_view(set.name)));
+    DGW_RETURN_IF_ERROR(update.Bind(2, std::string_view(set.description)));
+    DGW_RETURN_IF_ERROR(update.Bind(3, std::string_view(ts)));
+    DGW_RETURN_IF_ERROR(update.Bind(4, version));
+    DGW_RETURN_IF_ERROR(update.Bind(5, NewEtag()));
+    DGW_RETURN_IF_ERROR(update.Run());
+    DGW_RETURN_IF_ERROR(InsertVersion(*db_, set.name, version, author, comment, ts, curves_json));
+    DGW_ASSIGN_OR_RETURN(result, Get(set.name));
+    return absl::OkStatus();
+  }));
+  return result;
+}
+
+absl::Status CurveSetRepo::Delete(std::string_view name, std::string_view expected_etag) {
+  return db_->Transaction([&]() -> absl::Status {
+    DGW_ASSIGN_OR_RETURN(const Head head, ReadHead(*db_, name));
+    DGW_RETURN_IF_ERROR(CheckEtag(head, name, expected_etag));
+    // ON DELETE CASCADE removes the versions (the no-delete trigger lets the cascade pass).
+    DGW_ASSIGN_OR_RETURN(Statement del, db_->Prepare("DELETE FROM curve_sets WHERE name = ?1"));
+    DGW_RETURN_IF_ERROR(del.Bind(1, name));
+    return del.Run();
+  });
+}
+
+absl::StatusOr<std::vector<CurveSetVersion>> CurveSetRepo::ListVersions(std::string_view name) {
+  auto lock = db_->Lock();
+  DGW_RETURN_IF_ERROR(ReadHead(*db_, name).status());  // NotFound for an unknown set
+  DGW_ASSIGN_OR_RETURN(
+      Statement stmt,
+      db_->Prepare(absl::StrCat(kVersionColumns, " WHERE set_name = ?1 ORDER BY version DESC")));
+  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
+  std::vector<CurveSetVersion> out;
+  while (true) {
+    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+    if (!row) break;
+    DGW_ASSIGN_OR_RETURN(CurveSetVersion v, ReadVersion(stmt, name));
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
+absl::StatusOr<CurveSetVersion> CurveSetRepo::GetVersion(std::string_view name, int version) {
+  auto lock = db_->Lock();
+  DGW_ASSIGN_OR_RETURN(const Head head, ReadHead(*db_, name));
+  DGW_ASSIGN_OR_RETURN(
+      Statement stmt,
+      db_->Prepare(absl::StrCat(kVersionColumns, " WHERE set_name = ?1 AND version = ?2")));
+  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
+  DGW_RETURN_IF_ERROR(stmt.Bind(2, version));
+  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+  if (!row) {
+    return absl::NotFoundError(absl::StrCat(SetLabel(name), " has no version ", version,
+                                            " (versions 1..", head.version, ")"));
+  }
+  return ReadVersion(stmt, name);
+}
+
+}  // namespace drivegw::storage
