@@ -4,76 +4,38 @@
 
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <random>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_format.h"
 #include "adapters/core/status.h"
 #include "storage/audit_log.h"
+#include "storage/versioned_set_store.h"
 
 namespace drivegw::storage {
 namespace {
 
+using internal::NowMs;
+using internal::ReadTime;
 using nlohmann::json;
-using std::chrono::milliseconds;
-using std::chrono::system_clock;
 using LM = LinMotParametricCurve;
 
-constexpr size_t kMaxNameLength = 128;
 constexpr int kDefaultLimit = 100;
 constexpr const char* kKindPositionTime = "position_time";
 constexpr const char* kKindLinMot = "linmot";
 constexpr const char* kYUnitPosition = "position_0.1um";  // linmot-mc.md §7 L1001
 
-Time NowMs() { return std::chrono::floor<milliseconds>(system_clock::now()); }
+// Migration 003; same scheme as parameter sets (decision 411).
+constexpr internal::VersionedSetNames kNames{"curve_sets", "curve_set_versions", "curves_json",
+                                             "curve_set",  "curve set",          "curve set"};
 
-// 128 random bits as 32 hex digits, as parameter sets do (decision 410): an old etag never
-// matches by accident, not even after delete + create of the same name.
-std::string NewEtag() {
-  thread_local std::mt19937_64 engine{[] {
-    std::random_device rd;
-    std::seed_seq seq{rd(), rd(), rd(), rd(), rd(), rd(), rd(), rd()};
-    return std::mt19937_64(seq);
-  }()};
-  return absl::StrFormat("%016x%016x", engine(), engine());
-}
+internal::VersionedSetStore Store(Db& db) { return internal::VersionedSetStore(db, kNames); }
 
-absl::Status ValidateName(std::string_view name) {
-  if (name.empty() || name.size() > kMaxNameLength) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("curve_set.name: length ", name.size(), " is outside 1..", kMaxNameLength));
-  }
-  for (size_t i = 0; i < name.size(); ++i) {
-    const char c = name[i];
-    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
-                    c == '.' || c == '_' || c == '-';
-    if (!ok) {
-      return absl::InvalidArgumentError(absl::StrCat("curve_set.name: '", std::string(name),
-                                                     "' has a character outside ",
-                                                     "[A-Za-z0-9._-] at index ", i));
-    }
-  }
-  return absl::OkStatus();
-}
-
-absl::Status ValidateForWrite(const CurveSet& set) {
-  DGW_RETURN_IF_ERROR(ValidateName(set.name));
+absl::Status ValidateForWrite(const internal::VersionedSetStore& store, const CurveSet& set) {
+  DGW_RETURN_IF_ERROR(store.ValidateName(set.name));
   return ValidateCurveSetShape(set);
 }
 
-std::string SetLabel(std::string_view name) {
-  return absl::StrCat("curve set '", std::string(name), "'");
-}
-
-absl::Status NotFoundSet(std::string_view name) {
-  return absl::NotFoundError(absl::StrCat(SetLabel(name), " not found"));
-}
-
-Time ReadTime(const Statement& stmt, int column) {
-  // Rows are only written by this repo, so the text always parses; fall back to the epoch.
-  return ParseTimestamp(stmt.ColumnText(column)).value_or(Time{});
-}
+std::string SetLabel(std::string_view name) { return internal::SetLabel(kNames, name); }
 
 // ---- JSON --------------------------------------------------------------------------------------
 
@@ -214,63 +176,15 @@ absl::StatusOr<StoredCurveSet> ReadSet(const Statement& stmt) {
   return s;
 }
 
-constexpr const char* kVersionColumns =
-    "SELECT version, author, comment, created_at, curves_json FROM curve_set_versions";
-
-absl::StatusOr<CurveSetVersion> ReadVersion(const Statement& stmt, std::string_view name) {
+absl::StatusOr<CurveSetVersion> DecodeVersion(internal::VersionRow row, std::string_view name) {
   CurveSetVersion v;
-  v.version = stmt.ColumnInt(0);
-  v.author = stmt.ColumnText(1);
-  v.comment = stmt.ColumnText(2);
-  v.created_at = ReadTime(stmt, 3);
+  v.version = row.version;
+  v.author = std::move(row.author);
+  v.comment = std::move(row.comment);
+  v.created_at = row.created_at;
   DGW_ASSIGN_OR_RETURN(
-      v.curves,
-      CurvesFromJson(stmt.ColumnText(4), absl::StrCat(SetLabel(name), " version ", v.version)));
+      v.curves, CurvesFromJson(row.payload, absl::StrCat(SetLabel(name), " version ", v.version)));
   return v;
-}
-
-struct Head {
-  int version = 0;
-  std::string etag;
-};
-
-// The current version and etag of `name`, or NotFound. Runs inside the caller's lock/transaction.
-absl::StatusOr<Head> ReadHead(Db& db, std::string_view name) {
-  DGW_ASSIGN_OR_RETURN(Statement stmt,
-                       db.Prepare("SELECT version, etag FROM curve_sets WHERE name = ?1"));
-  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
-  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-  if (!row) return NotFoundSet(name);
-  return Head{stmt.ColumnInt(0), stmt.ColumnText(1)};
-}
-
-absl::Status CheckEtag(const Head& head, std::string_view name, std::string_view expected) {
-  if (expected.empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("etag: empty for ", SetLabel(name), " (updates and deletes are conditional)"));
-  }
-  if (head.etag != expected) {
-    // HTTP 412: the client read an older version; it must re-read and retry.
-    return absl::FailedPreconditionError(
-        absl::StrCat("etag mismatch: ", SetLabel(name), " is at version ", head.version));
-  }
-  return absl::OkStatus();
-}
-
-absl::Status InsertVersion(Db& db, std::string_view name, int version, std::string_view author,
-                           std::string_view comment, const std::string& ts,
-                           const std::string& curves_json) {
-  DGW_ASSIGN_OR_RETURN(Statement stmt,
-                       db.Prepare("INSERT INTO curve_set_versions (set_name, version, author, "
-                                  "comment, created_at, curves_json) VALUES (?1, ?2, ?3, ?4, ?5, "
-                                  "?6)"));
-  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
-  DGW_RETURN_IF_ERROR(stmt.Bind(2, version));
-  DGW_RETURN_IF_ERROR(stmt.Bind(3, author));
-  DGW_RETURN_IF_ERROR(stmt.Bind(4, comment));
-  DGW_RETURN_IF_ERROR(stmt.Bind(5, std::string_view(ts)));
-  DGW_RETURN_IF_ERROR(stmt.Bind(6, std::string_view(curves_json)));
-  return stmt.Run();
 }
 
 }  // namespace
@@ -302,28 +216,22 @@ absl::StatusOr<std::vector<Curve>> CurvesFromJson(std::string_view text, std::st
 
 absl::StatusOr<StoredCurveSet> CurveSetRepo::Create(const CurveSet& set, std::string_view author,
                                                     std::string_view comment) {
-  DGW_RETURN_IF_ERROR(ValidateForWrite(set));
+  const internal::VersionedSetStore store = Store(*db_);
+  DGW_RETURN_IF_ERROR(ValidateForWrite(store, set));
   DGW_ASSIGN_OR_RETURN(const std::string curves_json, CurvesToJson(set.curves));
   const std::string ts = FormatTimestamp(NowMs());
   StoredCurveSet result;
   DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
-    DGW_ASSIGN_OR_RETURN(Statement exists,
-                         db_->Prepare("SELECT 1 FROM curve_sets WHERE name = ?1"));
-    DGW_RETURN_IF_ERROR(exists.Bind(1, std::string_view(set.name)));
-    DGW_ASSIGN_OR_RETURN(const bool taken, exists.Step());
-    if (taken) {
-      return absl::AlreadyExistsError(
-          absl::StrCat("curve_set.name: '", set.name, "' already exists"));
-    }
+    DGW_RETURN_IF_ERROR(store.CheckNameFree(set.name));
     DGW_ASSIGN_OR_RETURN(Statement insert,
                          db_->Prepare("INSERT INTO curve_sets (name, description, created_at, "
                                       "updated_at, version, etag) VALUES (?1, ?2, ?3, ?3, 1, ?4)"));
     DGW_RETURN_IF_ERROR(insert.Bind(1, std::string_view(set.name)));
     DGW_RETURN_IF_ERROR(insert.Bind(2, std::string_view(set.description)));
     DGW_RETURN_IF_ERROR(insert.Bind(3, std::string_view(ts)));
-    DGW_RETURN_IF_ERROR(insert.Bind(4, NewEtag()));
+    DGW_RETURN_IF_ERROR(insert.Bind(4, internal::NewEtag()));
     DGW_RETURN_IF_ERROR(insert.Run());
-    DGW_RETURN_IF_ERROR(InsertVersion(*db_, set.name, 1, author, comment, ts, curves_json));
+    DGW_RETURN_IF_ERROR(store.InsertVersion(set.name, 1, author, comment, ts, curves_json));
     // Read back inside the transaction: the caller gets this version, not a later writer's.
     DGW_ASSIGN_OR_RETURN(result, Get(set.name));
     return absl::OkStatus();
@@ -337,15 +245,13 @@ absl::StatusOr<StoredCurveSet> CurveSetRepo::Get(std::string_view name) {
                        db_->Prepare(absl::StrCat(kSetColumns, " WHERE s.name = ?1")));
   DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
   DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-  if (!row) return NotFoundSet(name);
+  if (!row) return Store(*db_).NotFound(name);
   return ReadSet(stmt);
 }
 
 absl::StatusOr<std::vector<StoredCurveSet>> CurveSetRepo::List(const CurveSetQuery& query) {
-  if (query.limit < 0 || query.limit > CurveSetQuery::kMaxLimit) {
-    return absl::InvalidArgumentError(absl::StrCat("curve_set_query.limit: ", query.limit,
-                                                   " is outside 0..", CurveSetQuery::kMaxLimit));
-  }
+  DGW_RETURN_IF_ERROR(
+      internal::CheckLimit(query.limit, CurveSetQuery::kMaxLimit, "curve_set_query.limit"));
   const int limit = query.limit == 0 ? kDefaultLimit : query.limit;
   std::string sql(kSetColumns);
   int next = 1;
@@ -372,15 +278,16 @@ absl::StatusOr<StoredCurveSet> CurveSetRepo::Update(const CurveSet& set,
                                                     std::string_view expected_etag,
                                                     std::string_view author,
                                                     std::string_view comment) {
-  DGW_RETURN_IF_ERROR(ValidateForWrite(set));
+  const internal::VersionedSetStore store = Store(*db_);
+  DGW_RETURN_IF_ERROR(ValidateForWrite(store, set));
   DGW_ASSIGN_OR_RETURN(const std::string curves_json, CurvesToJson(set.curves));
   const std::string ts = FormatTimestamp(NowMs());
   StoredCurveSet result;
   DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
     // BEGIN IMMEDIATE holds the write lock from here: the etag read and the write are atomic
     // even against another connection or process.
-    DGW_ASSIGN_OR_RETURN(const Head head, ReadHead(*db_, set.name));
-    DGW_RETURN_IF_ERROR(CheckEtag(head, set.name, expected_etag));
+    DGW_ASSIGN_OR_RETURN(const internal::SetHead head, store.ReadHead(set.name));
+    DGW_RETURN_IF_ERROR(store.CheckEtag(head, set.name, expected_etag));
     const int version = head.version + 1;
     DGW_ASSIGN_OR_RETURN(Statement update,
                          db_->Prepare("UPDATE curve_sets SET description = ?2, updated_at = ?3, "
@@ -389,9 +296,9 @@ absl::StatusOr<StoredCurveSet> CurveSetRepo::Update(const CurveSet& set,
     DGW_RETURN_IF_ERROR(update.Bind(2, std::string_view(set.description)));
     DGW_RETURN_IF_ERROR(update.Bind(3, std::string_view(ts)));
     DGW_RETURN_IF_ERROR(update.Bind(4, version));
-    DGW_RETURN_IF_ERROR(update.Bind(5, NewEtag()));
+    DGW_RETURN_IF_ERROR(update.Bind(5, internal::NewEtag()));
     DGW_RETURN_IF_ERROR(update.Run());
-    DGW_RETURN_IF_ERROR(InsertVersion(*db_, set.name, version, author, comment, ts, curves_json));
+    DGW_RETURN_IF_ERROR(store.InsertVersion(set.name, version, author, comment, ts, curves_json));
     DGW_ASSIGN_OR_RETURN(result, Get(set.name));
     return absl::OkStatus();
   }));
@@ -399,47 +306,23 @@ absl::StatusOr<StoredCurveSet> CurveSetRepo::Update(const CurveSet& set,
 }
 
 absl::Status CurveSetRepo::Delete(std::string_view name, std::string_view expected_etag) {
-  return db_->Transaction([&]() -> absl::Status {
-    DGW_ASSIGN_OR_RETURN(const Head head, ReadHead(*db_, name));
-    DGW_RETURN_IF_ERROR(CheckEtag(head, name, expected_etag));
-    // ON DELETE CASCADE removes the versions (the no-delete trigger lets the cascade pass).
-    DGW_ASSIGN_OR_RETURN(Statement del, db_->Prepare("DELETE FROM curve_sets WHERE name = ?1"));
-    DGW_RETURN_IF_ERROR(del.Bind(1, name));
-    return del.Run();
-  });
+  return Store(*db_).Delete(name, expected_etag);
 }
 
 absl::StatusOr<std::vector<CurveSetVersion>> CurveSetRepo::ListVersions(std::string_view name) {
-  auto lock = db_->Lock();
-  DGW_RETURN_IF_ERROR(ReadHead(*db_, name).status());  // NotFound for an unknown set
-  DGW_ASSIGN_OR_RETURN(
-      Statement stmt,
-      db_->Prepare(absl::StrCat(kVersionColumns, " WHERE set_name = ?1 ORDER BY version DESC")));
-  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
+  DGW_ASSIGN_OR_RETURN(std::vector<internal::VersionRow> rows, Store(*db_).ListVersions(name));
   std::vector<CurveSetVersion> out;
-  while (true) {
-    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-    if (!row) break;
-    DGW_ASSIGN_OR_RETURN(CurveSetVersion v, ReadVersion(stmt, name));
+  out.reserve(rows.size());
+  for (internal::VersionRow& row : rows) {
+    DGW_ASSIGN_OR_RETURN(CurveSetVersion v, DecodeVersion(std::move(row), name));
     out.push_back(std::move(v));
   }
   return out;
 }
 
 absl::StatusOr<CurveSetVersion> CurveSetRepo::GetVersion(std::string_view name, int version) {
-  auto lock = db_->Lock();
-  DGW_ASSIGN_OR_RETURN(const Head head, ReadHead(*db_, name));
-  DGW_ASSIGN_OR_RETURN(
-      Statement stmt,
-      db_->Prepare(absl::StrCat(kVersionColumns, " WHERE set_name = ?1 AND version = ?2")));
-  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
-  DGW_RETURN_IF_ERROR(stmt.Bind(2, version));
-  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-  if (!row) {
-    return absl::NotFoundError(absl::StrCat(SetLabel(name), " has no version ", version,
-                                            " (versions 1..", head.version, ")"));
-  }
-  return ReadVersion(stmt, name);
+  DGW_ASSIGN_OR_RETURN(internal::VersionRow row, Store(*db_).GetVersion(name, version));
+  return DecodeVersion(std::move(row), name);
 }
 
 }  // namespace drivegw::storage

@@ -4,57 +4,33 @@
 
 #include <algorithm>
 #include <charconv>
-#include <random>
 #include <unordered_map>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_format.h"
 #include "adapters/core/status.h"
 #include "storage/audit_log.h"
 #include "storage/parameter_set_json.h"
+#include "storage/versioned_set_store.h"
 
 namespace drivegw::storage {
 namespace {
 
-using std::chrono::milliseconds;
-using std::chrono::system_clock;
+using internal::NowMs;
+using internal::ReadTime;
 
-constexpr size_t kMaxNameLength = 128;
 constexpr int kDefaultLimit = 100;
 constexpr const char* kOpPrefix = "op-";
 constexpr size_t kOpPrefixLength = 3;
 
-Time NowMs() { return std::chrono::floor<milliseconds>(system_clock::now()); }
+// Migration 002; the wording is what clients and tests already see.
+constexpr internal::VersionedSetNames kNames{
+    "parameter_sets", "parameter_set_versions", "values_json", "parameter_set", "set",
+    "parameter set"};
 
-// 128 random bits as 32 hex digits: unguessable and different for every update, so a client
-// holding an old etag can never match by accident (unlike a version number after delete+create).
-std::string NewEtag() {
-  thread_local std::mt19937_64 engine{[] {
-    std::random_device rd;
-    std::seed_seq seq{rd(), rd(), rd(), rd(), rd(), rd(), rd(), rd()};
-    return std::mt19937_64(seq);
-  }()};
-  return absl::StrFormat("%016x%016x", engine(), engine());
-}
+internal::VersionedSetStore Store(Db& db) { return internal::VersionedSetStore(db, kNames); }
 
-absl::Status ValidateName(std::string_view name) {
-  if (name.empty() || name.size() > kMaxNameLength) {
-    return absl::InvalidArgumentError(absl::StrCat("parameter_set.name: length ", name.size(),
-                                                   " is outside 1..", kMaxNameLength));
-  }
-  for (size_t i = 0; i < name.size(); ++i) {
-    const char c = name[i];
-    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
-                    c == '.' || c == '_' || c == '-';
-    if (!ok) {
-      return absl::InvalidArgumentError(absl::StrCat("parameter_set.name: '", std::string(name),
-                                                     "' has a character outside ",
-                                                     "[A-Za-z0-9._-] at index ", i));
-    }
-  }
-  return absl::OkStatus();
-}
+std::string SetLabel(std::string_view name) { return internal::SetLabel(kNames, name); }
 
 absl::Status ValidateValues(const std::vector<ParameterValue>& values) {
   std::unordered_map<std::string_view, size_t> seen;
@@ -74,30 +50,13 @@ absl::Status ValidateValues(const std::vector<ParameterValue>& values) {
   return absl::OkStatus();
 }
 
-absl::Status ValidateForWrite(const ParameterSet& set) {
-  DGW_RETURN_IF_ERROR(ValidateName(set.name));
+absl::Status ValidateForWrite(const internal::VersionedSetStore& store, const ParameterSet& set) {
+  DGW_RETURN_IF_ERROR(store.ValidateName(set.name));
   return ValidateValues(set.values);
 }
 
-std::string SetLabel(std::string_view name) {
-  return absl::StrCat("set '", std::string(name), "'");
-}
-
-absl::Status NotFoundSet(std::string_view name) {
-  return absl::NotFoundError(absl::StrCat("parameter set '", std::string(name), "' not found"));
-}
-
 absl::Status CheckLimit(int limit, std::string_view field) {
-  if (limit < 0 || limit > ParameterSetQuery::kMaxLimit) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        std::string(field), ": ", limit, " is outside 0..", ParameterSetQuery::kMaxLimit));
-  }
-  return absl::OkStatus();
-}
-
-Time ReadTime(const Statement& stmt, int column) {
-  // Rows are only written by this repo, so the text always parses; fall back to the epoch.
-  return ParseTimestamp(stmt.ColumnText(column)).value_or(Time{});
+  return internal::CheckLimit(limit, ParameterSetQuery::kMaxLimit, field);
 }
 
 // The join of a set with its newest version; ReadSet() reads these columns in this order.
@@ -124,15 +83,14 @@ absl::StatusOr<ParameterSet> ReadSet(const Statement& stmt) {
   return s;
 }
 
-absl::StatusOr<ParameterSetVersion> ReadVersion(const Statement& stmt, std::string_view name) {
+absl::StatusOr<ParameterSetVersion> DecodeVersion(internal::VersionRow row, std::string_view name) {
   ParameterSetVersion v;
-  v.version = stmt.ColumnInt(0);
-  v.author = stmt.ColumnText(1);
-  v.comment = stmt.ColumnText(2);
-  v.created_at = ReadTime(stmt, 3);
+  v.version = row.version;
+  v.author = std::move(row.author);
+  v.comment = std::move(row.comment);
+  v.created_at = row.created_at;
   DGW_ASSIGN_OR_RETURN(
-      v.values,
-      ValuesFromJson(stmt.ColumnText(4), absl::StrCat(SetLabel(name), " version ", v.version)));
+      v.values, ValuesFromJson(row.payload, absl::StrCat(SetLabel(name), " version ", v.version)));
   return v;
 }
 
@@ -194,68 +152,18 @@ absl::StatusOr<int64_t> ParseOpId(std::string_view id) {
       absl::StrCat("apply operation '", std::string(id), "' not found (ids are op-<n>)"));
 }
 
-// The current version and etag of `name`, or NotFound. Runs inside the caller's transaction.
-struct Head {
-  int version = 0;
-  std::string etag;
-};
-
-absl::StatusOr<Head> ReadHead(Db& db, std::string_view name) {
-  DGW_ASSIGN_OR_RETURN(Statement stmt,
-                       db.Prepare("SELECT version, etag FROM parameter_sets WHERE name = ?1"));
-  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
-  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-  if (!row) return NotFoundSet(name);
-  return Head{stmt.ColumnInt(0), stmt.ColumnText(1)};
-}
-
-absl::Status CheckEtag(const Head& head, std::string_view name, std::string_view expected) {
-  if (expected.empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("etag: empty for ", SetLabel(name), " (updates and deletes are conditional)"));
-  }
-  if (head.etag != expected) {
-    // HTTP 412: the client read an older version; it must re-read and retry.
-    return absl::FailedPreconditionError(
-        absl::StrCat("etag mismatch: ", SetLabel(name), " is at version ", head.version));
-  }
-  return absl::OkStatus();
-}
-
-absl::Status InsertVersion(Db& db, std::string_view name, int version, std::string_view author,
-                           std::string_view comment, const std::string& ts,
-                           const std::string& values_json) {
-  DGW_ASSIGN_OR_RETURN(Statement stmt,
-                       db.Prepare("INSERT INTO parameter_set_versions (set_name, version, author, "
-                                  "comment, created_at, values_json) VALUES (?1, ?2, ?3, ?4, ?5, "
-                                  "?6)"));
-  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
-  DGW_RETURN_IF_ERROR(stmt.Bind(2, version));
-  DGW_RETURN_IF_ERROR(stmt.Bind(3, author));
-  DGW_RETURN_IF_ERROR(stmt.Bind(4, comment));
-  DGW_RETURN_IF_ERROR(stmt.Bind(5, std::string_view(ts)));
-  DGW_RETURN_IF_ERROR(stmt.Bind(6, std::string_view(values_json)));
-  return stmt.Run();
-}
-
 }  // namespace
 
 absl::StatusOr<ParameterSet> ParameterSetRepo::Create(const ParameterSet& set,
                                                       std::string_view comment) {
-  DGW_RETURN_IF_ERROR(ValidateForWrite(set));
+  const internal::VersionedSetStore store = Store(*db_);
+  DGW_RETURN_IF_ERROR(ValidateForWrite(store, set));
   if (set.family.empty()) return absl::InvalidArgumentError("parameter_set.family: empty");
   DGW_ASSIGN_OR_RETURN(const std::string values_json, ValuesToJson(set.values));
   const std::string ts = FormatTimestamp(NowMs());
   ParameterSet result;
   DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
-    DGW_ASSIGN_OR_RETURN(Statement exists,
-                         db_->Prepare("SELECT 1 FROM parameter_sets WHERE name = ?1"));
-    DGW_RETURN_IF_ERROR(exists.Bind(1, std::string_view(set.name)));
-    DGW_ASSIGN_OR_RETURN(const bool taken, exists.Step());
-    if (taken) {
-      return absl::AlreadyExistsError(
-          absl::StrCat("parameter_set.name: '", set.name, "' already exists"));
-    }
+    DGW_RETURN_IF_ERROR(store.CheckNameFree(set.name));
     DGW_ASSIGN_OR_RETURN(
         Statement insert,
         db_->Prepare("INSERT INTO parameter_sets (name, family, model, description, "
@@ -267,9 +175,9 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Create(const ParameterSet& set,
     DGW_RETURN_IF_ERROR(insert.Bind(4, std::string_view(set.description)));
     DGW_RETURN_IF_ERROR(insert.Bind(5, set.target_stored ? 1 : 0));
     DGW_RETURN_IF_ERROR(insert.Bind(6, std::string_view(ts)));
-    DGW_RETURN_IF_ERROR(insert.Bind(7, NewEtag()));
+    DGW_RETURN_IF_ERROR(insert.Bind(7, internal::NewEtag()));
     DGW_RETURN_IF_ERROR(insert.Run());
-    DGW_RETURN_IF_ERROR(InsertVersion(*db_, set.name, 1, set.author, comment, ts, values_json));
+    DGW_RETURN_IF_ERROR(store.InsertVersion(set.name, 1, set.author, comment, ts, values_json));
     // Read back inside the transaction: the caller gets this version, not a later writer's.
     DGW_ASSIGN_OR_RETURN(result, Get(set.name));
     return absl::OkStatus();
@@ -283,7 +191,7 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Get(std::string_view name) {
                        db_->Prepare(absl::StrCat(kSetColumns, " WHERE s.name = ?1")));
   DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
   DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-  if (!row) return NotFoundSet(name);
+  if (!row) return Store(*db_).NotFound(name);
   return ReadSet(stmt);
 }
 
@@ -320,15 +228,16 @@ absl::StatusOr<std::vector<ParameterSet>> ParameterSetRepo::List(const Parameter
 absl::StatusOr<ParameterSet> ParameterSetRepo::Update(const ParameterSet& set,
                                                       std::string_view expected_etag,
                                                       std::string_view comment) {
-  DGW_RETURN_IF_ERROR(ValidateForWrite(set));
+  const internal::VersionedSetStore store = Store(*db_);
+  DGW_RETURN_IF_ERROR(ValidateForWrite(store, set));
   DGW_ASSIGN_OR_RETURN(const std::string values_json, ValuesToJson(set.values));
   const std::string ts = FormatTimestamp(NowMs());
   ParameterSet result;
   DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
     // BEGIN IMMEDIATE holds the write lock from here, so the etag read and the write are atomic
     // even against another connection or process.
-    DGW_ASSIGN_OR_RETURN(const Head head, ReadHead(*db_, set.name));
-    DGW_RETURN_IF_ERROR(CheckEtag(head, set.name, expected_etag));
+    DGW_ASSIGN_OR_RETURN(const internal::SetHead head, store.ReadHead(set.name));
+    DGW_RETURN_IF_ERROR(store.CheckEtag(head, set.name, expected_etag));
     DGW_ASSIGN_OR_RETURN(Statement family,
                          db_->Prepare("SELECT family FROM parameter_sets WHERE name = ?1"));
     DGW_RETURN_IF_ERROR(family.Bind(1, std::string_view(set.name)));
@@ -350,10 +259,10 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Update(const ParameterSet& set,
     DGW_RETURN_IF_ERROR(update.Bind(4, set.target_stored ? 1 : 0));
     DGW_RETURN_IF_ERROR(update.Bind(5, std::string_view(ts)));
     DGW_RETURN_IF_ERROR(update.Bind(6, version));
-    DGW_RETURN_IF_ERROR(update.Bind(7, NewEtag()));
+    DGW_RETURN_IF_ERROR(update.Bind(7, internal::NewEtag()));
     DGW_RETURN_IF_ERROR(update.Run());
     DGW_RETURN_IF_ERROR(
-        InsertVersion(*db_, set.name, version, set.author, comment, ts, values_json));
+        store.InsertVersion(set.name, version, set.author, comment, ts, values_json));
     DGW_ASSIGN_OR_RETURN(result, Get(set.name));
     return absl::OkStatus();
   }));
@@ -361,30 +270,17 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Update(const ParameterSet& set,
 }
 
 absl::Status ParameterSetRepo::Delete(std::string_view name, std::string_view expected_etag) {
-  return db_->Transaction([&]() -> absl::Status {
-    DGW_ASSIGN_OR_RETURN(const Head head, ReadHead(*db_, name));
-    DGW_RETURN_IF_ERROR(CheckEtag(head, name, expected_etag));
-    // ON DELETE CASCADE removes the versions; apply_operations have no foreign key and stay.
-    DGW_ASSIGN_OR_RETURN(Statement del, db_->Prepare("DELETE FROM parameter_sets WHERE name = ?1"));
-    DGW_RETURN_IF_ERROR(del.Bind(1, name));
-    return del.Run();
-  });
+  // apply_operations have no foreign key to the set and keep their copy.
+  return Store(*db_).Delete(name, expected_etag);
 }
 
 absl::StatusOr<std::vector<ParameterSetVersion>> ParameterSetRepo::ListVersions(
     std::string_view name) {
-  auto lock = db_->Lock();
-  DGW_RETURN_IF_ERROR(ReadHead(*db_, name).status());  // NotFound for an unknown set
-  DGW_ASSIGN_OR_RETURN(
-      Statement stmt,
-      db_->Prepare("SELECT version, author, comment, created_at, values_json FROM "
-                   "parameter_set_versions WHERE set_name = ?1 ORDER BY version DESC"));
-  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
+  DGW_ASSIGN_OR_RETURN(std::vector<internal::VersionRow> rows, Store(*db_).ListVersions(name));
   std::vector<ParameterSetVersion> out;
-  while (true) {
-    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-    if (!row) break;
-    DGW_ASSIGN_OR_RETURN(ParameterSetVersion v, ReadVersion(stmt, name));
+  out.reserve(rows.size());
+  for (internal::VersionRow& row : rows) {
+    DGW_ASSIGN_OR_RETURN(ParameterSetVersion v, DecodeVersion(std::move(row), name));
     out.push_back(std::move(v));
   }
   return out;
@@ -392,20 +288,8 @@ absl::StatusOr<std::vector<ParameterSetVersion>> ParameterSetRepo::ListVersions(
 
 absl::StatusOr<ParameterSetVersion> ParameterSetRepo::GetVersion(std::string_view name,
                                                                  int version) {
-  auto lock = db_->Lock();
-  DGW_ASSIGN_OR_RETURN(const Head head, ReadHead(*db_, name));
-  DGW_ASSIGN_OR_RETURN(Statement stmt,
-                       db_->Prepare("SELECT version, author, comment, created_at, values_json FROM "
-                                    "parameter_set_versions WHERE set_name = ?1 AND version = ?2"));
-  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
-  DGW_RETURN_IF_ERROR(stmt.Bind(2, version));
-  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-  if (!row) {
-    return absl::NotFoundError(absl::StrCat("parameter set '", std::string(name),
-                                            "' has no version ", version, " (versions 1..",
-                                            head.version, ")"));
-  }
-  return ReadVersion(stmt, name);
+  DGW_ASSIGN_OR_RETURN(internal::VersionRow row, Store(*db_).GetVersion(name, version));
+  return DecodeVersion(std::move(row), name);
 }
 
 absl::StatusOr<ApplyOperation> ParameterSetRepo::CreateOperation(const ApplyOperation& op) {

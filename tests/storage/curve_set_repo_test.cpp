@@ -13,12 +13,14 @@
 #include "storage/audit_log.h"
 #include "storage/migrations.h"
 #include "storage/parameter_set_repo.h"
+#include "tests/storage/set_repo_fixture.h"
 #include "tests/storage/temp_dir.h"
 
 namespace drivegw::storage {
 namespace {
 
 using ::testing::HasSubstr;
+using testing::OpenDb;
 using testing::TempDir;
 using LM = LinMotParametricCurve;
 
@@ -50,32 +52,7 @@ CurveSet MakeSet(std::string name) {
   return CurveSet{std::move(name), "press line, product A", {Lift(), Cut()}};
 }
 
-std::unique_ptr<Db> OpenDb(const std::string& path) {
-  auto db = Db::Open(path);
-  EXPECT_TRUE(db.ok()) << db.status();
-  if (!db.ok()) return nullptr;
-  return std::make_unique<Db>(std::move(*db));
-}
-
-class CurveSetRepoTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    db_ = OpenDb(dir_.File("curves.db"));
-    ASSERT_NE(db_, nullptr);
-    ASSERT_TRUE(Migrate(*db_).ok());
-    repo_ = std::make_unique<CurveSetRepo>(*db_);
-  }
-
-  int64_t Count(const std::string& table) {
-    auto stmt = db_->Prepare(absl::StrCat("SELECT COUNT(*) FROM ", table));
-    EXPECT_TRUE(stmt.ok() && *stmt->Step());
-    return stmt->ColumnInt64(0);
-  }
-
-  TempDir dir_;
-  std::unique_ptr<Db> db_;
-  std::unique_ptr<CurveSetRepo> repo_;
-};
+class CurveSetRepoTest : public testing::SetRepoTest<CurveSetRepo> {};
 
 TEST_F(CurveSetRepoTest, Create_Get_RoundTripsBothKindsExactly) {
   auto created = repo_->Create(MakeSet("press-a"), "alice", "first");

@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "storage/audit_log.h"
 #include "storage/migrations.h"
+#include "tests/storage/set_repo_fixture.h"
 #include "tests/storage/temp_dir.h"
 
 namespace drivegw::storage {
@@ -19,6 +20,7 @@ namespace {
 
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
+using testing::OpenDb;
 using testing::TempDir;
 
 ParameterSet MakeSet(std::string name, std::vector<ParameterValue> values) {
@@ -36,32 +38,7 @@ ParameterSet MakeSet(std::string name, std::vector<ParameterValue> values) {
 const std::vector<ParameterValue> kValues = {
     {"$4.vmax", 4, 300}, {"$5.amax", 5, -7}, {"$6.current", 6, 9'000'000'000'000LL}};
 
-std::unique_ptr<Db> OpenDb(const std::string& path) {
-  auto db = Db::Open(path);
-  EXPECT_TRUE(db.ok()) << db.status();
-  if (!db.ok()) return nullptr;
-  return std::make_unique<Db>(std::move(*db));
-}
-
-class ParameterSetRepoTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    db_ = OpenDb(dir_.File("sets.db"));
-    ASSERT_NE(db_, nullptr);
-    ASSERT_TRUE(Migrate(*db_).ok());
-    repo_ = std::make_unique<ParameterSetRepo>(*db_);
-  }
-
-  int64_t Count(const std::string& table) {
-    auto stmt = db_->Prepare(absl::StrCat("SELECT COUNT(*) FROM ", table));
-    EXPECT_TRUE(stmt.ok() && *stmt->Step());
-    return stmt->ColumnInt64(0);
-  }
-
-  TempDir dir_;
-  std::unique_ptr<Db> db_;
-  std::unique_ptr<ParameterSetRepo> repo_;
-};
+class ParameterSetRepoTest : public testing::SetRepoTest<ParameterSetRepo> {};
 
 TEST_F(ParameterSetRepoTest, Create_ThenGet_RoundTripsEveryField) {
   const auto before = std::chrono::system_clock::now() - std::chrono::milliseconds(1);

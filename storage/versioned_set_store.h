@@ -1,0 +1,86 @@
+// The part ParameterSetRepo and CurveSetRepo share (decisions 410, 411): a set table whose row
+// points at the newest of its immutable versions in a version table with one JSON payload column,
+// optimistic concurrency by a random etag. Each repo keeps its own set columns and payload codec;
+// this class only knows the table names, so both keep their public headers and migrations.
+#pragma once
+
+#include <chrono>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "storage/db.h"
+
+namespace drivegw::storage::internal {
+
+using SetTime = std::chrono::system_clock::time_point;
+
+// Table and wording of one kind of versioned set. All literals: they are spliced into SQL.
+struct VersionedSetNames {
+  const char* sets_table;      // "parameter_sets": name, version, etag, ...
+  const char* versions_table;  // "parameter_set_versions": set_name, version, author, ...
+  const char* payload_column;  // "values_json" in versions_table
+  const char* field;           // error field prefix: "parameter_set" -> "parameter_set.name: ..."
+  const char* label_noun;      // etag/JSON errors: "set" -> "set 'x' is at version 4"
+  const char* not_found_noun;  // "parameter set" -> "parameter set 'x' not found"
+};
+
+// One row of versions_table, payload still JSON (the repo decodes it with Label()+" version n").
+struct VersionRow {
+  int version = 0;
+  std::string author;
+  std::string comment;
+  SetTime created_at{};
+  std::string payload;
+};
+
+// The current version and etag of a set.
+struct SetHead {
+  int version = 0;
+  std::string etag;
+};
+
+SetTime NowMs();  // UTC, floored to the millisecond the timestamps store
+// 128 random bits as 32 hex digits: unguessable and different for every update, so a client
+// holding an old etag can never match by accident (unlike a version number after delete+create).
+std::string NewEtag();
+// Rows are only written by the repos, so the text always parses; falls back to the epoch.
+SetTime ReadTime(const Statement& stmt, int column);
+// "<label_noun> 'name'", the row named in etag and stored-JSON errors: "set 'x'".
+std::string SetLabel(const VersionedSetNames& names, std::string_view name);
+// InvalidArgument "<field>: <limit> is outside 0..<max>".
+absl::Status CheckLimit(int limit, int max, std::string_view field);
+
+class VersionedSetStore {
+ public:
+  VersionedSetStore(Db& db, const VersionedSetNames& names) : db_(&db), names_(names) {}
+
+  // 1..128 chars of [A-Za-z0-9._-]; InvalidArgument naming "<field>.name".
+  absl::Status ValidateName(std::string_view name) const;
+  std::string Label(std::string_view name) const { return SetLabel(names_, name); }
+  absl::Status NotFound(std::string_view name) const;  // "parameter set 'x' not found"
+
+  // The caller holds Db::Lock() or is inside Db::Transaction().
+  absl::StatusOr<SetHead> ReadHead(std::string_view name) const;  // NotFound if absent
+  // InvalidArgument for an empty `expected` (updates and deletes are conditional),
+  // FailedPrecondition "etag mismatch: ..." (HTTP 412) when it is not the current etag.
+  absl::Status CheckEtag(const SetHead& head, std::string_view name,
+                         std::string_view expected) const;
+  absl::Status CheckNameFree(std::string_view name) const;  // AlreadyExists "<field>.name: ..."
+  absl::Status InsertVersion(std::string_view name, int version, std::string_view author,
+                             std::string_view comment, const std::string& ts,
+                             const std::string& payload) const;
+
+  // Whole operations, each in its own transaction or lock.
+  absl::Status Delete(std::string_view name, std::string_view expected_etag) const;
+  absl::StatusOr<std::vector<VersionRow>> ListVersions(std::string_view name) const;  // newest 1st
+  absl::StatusOr<VersionRow> GetVersion(std::string_view name, int version) const;
+
+ private:
+  Db* db_;
+  VersionedSetNames names_;
+};
+
+}  // namespace drivegw::storage::internal
