@@ -174,8 +174,9 @@ TEST_F(StoberDriveTest, ExecuteEdgeNeverTakenEndsErrorAfterOneRetry) {
   EXPECT_THAT(m.message, HasSubstr("stober-motion.md §2.1"));
   EXPECT_EQ(server_->dropped_execute_edges(), 2u);
   EXPECT_EQ(drive_->counters().execute_retries, 1u);
-  // Two edges, each bounded by accept + 4 A150 + the low time: far below a second.
-  EXPECT_LT(took, 2 * (config_.timeouts.accept + 100ms));
+  // Two edges, each bounded by accept + 4 A150 (+ the 10 ms edge wait and the 3 ms low time);
+  // the margin is for a loaded machine, the point is "bounded", not BUSY forever.
+  EXPECT_LT(took, 2 * config_.timeouts.accept + 400ms);
   EXPECT_EQ(drive_->GetCommand(m.id)->state, CommandState::kError);
   EXPECT_EQ(drive_->GetStatus().state, DriveState::kEnabled);
   server_->SetIgnoreExecute(false);
