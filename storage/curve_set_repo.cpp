@@ -176,12 +176,9 @@ absl::StatusOr<StoredCurveSet> ReadSet(const Statement& stmt) {
   return s;
 }
 
-absl::StatusOr<CurveSetVersion> DecodeVersion(internal::VersionRow row, std::string_view name) {
-  CurveSetVersion v;
-  v.version = row.version;
-  v.author = std::move(row.author);
-  v.comment = std::move(row.comment);
-  v.created_at = row.created_at;
+absl::StatusOr<CurveSetVersion> DecodeVersion(const internal::VersionRow& row,
+                                              std::string_view name) {
+  auto v = internal::VersionFields<CurveSetVersion>(row);
   DGW_ASSIGN_OR_RETURN(
       v.curves, CurvesFromJson(row.payload, absl::StrCat(SetLabel(name), " version ", v.version)));
   return v;
@@ -240,13 +237,7 @@ absl::StatusOr<StoredCurveSet> CurveSetRepo::Create(const CurveSet& set, std::st
 }
 
 absl::StatusOr<StoredCurveSet> CurveSetRepo::Get(std::string_view name) {
-  auto lock = db_->Lock();
-  DGW_ASSIGN_OR_RETURN(Statement stmt,
-                       db_->Prepare(absl::StrCat(kSetColumns, " WHERE s.name = ?1")));
-  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
-  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-  if (!row) return Store(*db_).NotFound(name);
-  return ReadSet(stmt);
+  return Store(*db_).GetSet(kSetColumns, name, ReadSet);
 }
 
 absl::StatusOr<std::vector<StoredCurveSet>> CurveSetRepo::List(const CurveSetQuery& query) {
@@ -264,14 +255,7 @@ absl::StatusOr<std::vector<StoredCurveSet>> CurveSetRepo::List(const CurveSetQue
   DGW_ASSIGN_OR_RETURN(Statement stmt, db_->Prepare(sql));
   if (after_index) DGW_RETURN_IF_ERROR(stmt.Bind(after_index, std::string_view(*query.after_name)));
   DGW_RETURN_IF_ERROR(stmt.Bind(next, limit));
-  std::vector<StoredCurveSet> out;
-  while (true) {
-    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-    if (!row) break;
-    DGW_ASSIGN_OR_RETURN(StoredCurveSet s, ReadSet(stmt));
-    out.push_back(std::move(s));
-  }
-  return out;
+  return internal::ReadAll<StoredCurveSet>(stmt, ReadSet);
 }
 
 absl::StatusOr<StoredCurveSet> CurveSetRepo::Update(const CurveSet& set,
@@ -310,19 +294,15 @@ absl::Status CurveSetRepo::Delete(std::string_view name, std::string_view expect
 }
 
 absl::StatusOr<std::vector<CurveSetVersion>> CurveSetRepo::ListVersions(std::string_view name) {
-  DGW_ASSIGN_OR_RETURN(std::vector<internal::VersionRow> rows, Store(*db_).ListVersions(name));
-  std::vector<CurveSetVersion> out;
-  out.reserve(rows.size());
-  for (internal::VersionRow& row : rows) {
-    DGW_ASSIGN_OR_RETURN(CurveSetVersion v, DecodeVersion(std::move(row), name));
-    out.push_back(std::move(v));
-  }
-  return out;
+  DGW_ASSIGN_OR_RETURN(const std::vector<internal::VersionRow> rows,
+                       Store(*db_).ListVersions(name));
+  return internal::DecodeVersions<CurveSetVersion>(
+      rows, [&](const internal::VersionRow& row) { return DecodeVersion(row, name); });
 }
 
 absl::StatusOr<CurveSetVersion> CurveSetRepo::GetVersion(std::string_view name, int version) {
-  DGW_ASSIGN_OR_RETURN(internal::VersionRow row, Store(*db_).GetVersion(name, version));
-  return DecodeVersion(std::move(row), name);
+  DGW_ASSIGN_OR_RETURN(const internal::VersionRow row, Store(*db_).GetVersion(name, version));
+  return DecodeVersion(row, name);
 }
 
 }  // namespace drivegw::storage

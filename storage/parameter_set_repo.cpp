@@ -83,12 +83,9 @@ absl::StatusOr<ParameterSet> ReadSet(const Statement& stmt) {
   return s;
 }
 
-absl::StatusOr<ParameterSetVersion> DecodeVersion(internal::VersionRow row, std::string_view name) {
-  ParameterSetVersion v;
-  v.version = row.version;
-  v.author = std::move(row.author);
-  v.comment = std::move(row.comment);
-  v.created_at = row.created_at;
+absl::StatusOr<ParameterSetVersion> DecodeVersion(const internal::VersionRow& row,
+                                                  std::string_view name) {
+  auto v = internal::VersionFields<ParameterSetVersion>(row);
   DGW_ASSIGN_OR_RETURN(
       v.values, ValuesFromJson(row.payload, absl::StrCat(SetLabel(name), " version ", v.version)));
   return v;
@@ -186,13 +183,7 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Create(const ParameterSet& set,
 }
 
 absl::StatusOr<ParameterSet> ParameterSetRepo::Get(std::string_view name) {
-  auto lock = db_->Lock();
-  DGW_ASSIGN_OR_RETURN(Statement stmt,
-                       db_->Prepare(absl::StrCat(kSetColumns, " WHERE s.name = ?1")));
-  DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
-  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-  if (!row) return Store(*db_).NotFound(name);
-  return ReadSet(stmt);
+  return Store(*db_).GetSet(kSetColumns, name, ReadSet);
 }
 
 absl::StatusOr<std::vector<ParameterSet>> ParameterSetRepo::List(const ParameterSetQuery& query) {
@@ -215,14 +206,7 @@ absl::StatusOr<std::vector<ParameterSet>> ParameterSetRepo::List(const Parameter
   if (family_index) DGW_RETURN_IF_ERROR(stmt.Bind(family_index, std::string_view(*query.family)));
   if (after_index) DGW_RETURN_IF_ERROR(stmt.Bind(after_index, std::string_view(*query.after_name)));
   DGW_RETURN_IF_ERROR(stmt.Bind(next, limit));
-  std::vector<ParameterSet> out;
-  while (true) {
-    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-    if (!row) break;
-    DGW_ASSIGN_OR_RETURN(ParameterSet s, ReadSet(stmt));
-    out.push_back(std::move(s));
-  }
-  return out;
+  return internal::ReadAll<ParameterSet>(stmt, ReadSet);
 }
 
 absl::StatusOr<ParameterSet> ParameterSetRepo::Update(const ParameterSet& set,
@@ -276,20 +260,16 @@ absl::Status ParameterSetRepo::Delete(std::string_view name, std::string_view ex
 
 absl::StatusOr<std::vector<ParameterSetVersion>> ParameterSetRepo::ListVersions(
     std::string_view name) {
-  DGW_ASSIGN_OR_RETURN(std::vector<internal::VersionRow> rows, Store(*db_).ListVersions(name));
-  std::vector<ParameterSetVersion> out;
-  out.reserve(rows.size());
-  for (internal::VersionRow& row : rows) {
-    DGW_ASSIGN_OR_RETURN(ParameterSetVersion v, DecodeVersion(std::move(row), name));
-    out.push_back(std::move(v));
-  }
-  return out;
+  DGW_ASSIGN_OR_RETURN(const std::vector<internal::VersionRow> rows,
+                       Store(*db_).ListVersions(name));
+  return internal::DecodeVersions<ParameterSetVersion>(
+      rows, [&](const internal::VersionRow& row) { return DecodeVersion(row, name); });
 }
 
 absl::StatusOr<ParameterSetVersion> ParameterSetRepo::GetVersion(std::string_view name,
                                                                  int version) {
-  DGW_ASSIGN_OR_RETURN(internal::VersionRow row, Store(*db_).GetVersion(name, version));
-  return DecodeVersion(std::move(row), name);
+  DGW_ASSIGN_OR_RETURN(const internal::VersionRow row, Store(*db_).GetVersion(name, version));
+  return DecodeVersion(row, name);
 }
 
 absl::StatusOr<ApplyOperation> ParameterSetRepo::CreateOperation(const ApplyOperation& op) {
@@ -370,14 +350,7 @@ absl::StatusOr<std::vector<ApplyOperation>> ParameterSetRepo::ListOperations(int
   DGW_ASSIGN_OR_RETURN(Statement stmt,
                        db_->Prepare(absl::StrCat(kOpColumns, " ORDER BY id DESC LIMIT ?1")));
   DGW_RETURN_IF_ERROR(stmt.Bind(1, limit == 0 ? kDefaultLimit : limit));
-  std::vector<ApplyOperation> out;
-  while (true) {
-    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-    if (!row) break;
-    DGW_ASSIGN_OR_RETURN(ApplyOperation op, ReadOperation(stmt));
-    out.push_back(std::move(op));
-  }
-  return out;
+  return internal::ReadAll<ApplyOperation>(stmt, ReadOperation);
 }
 
 }  // namespace drivegw::storage

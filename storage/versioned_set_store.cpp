@@ -151,13 +151,8 @@ absl::StatusOr<std::vector<VersionRow>> VersionedSetStore::ListVersions(
                                            names_.payload_column, " FROM ", names_.versions_table,
                                            " WHERE set_name = ?1 ORDER BY version DESC")));
   DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
-  std::vector<VersionRow> out;
-  while (true) {
-    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-    if (!row) break;
-    out.push_back(ReadVersionRow(stmt));
-  }
-  return out;
+  return ReadAll<VersionRow>(
+      stmt, [](const Statement& row) -> absl::StatusOr<VersionRow> { return ReadVersionRow(row); });
 }
 
 absl::StatusOr<VersionRow> VersionedSetStore::GetVersion(std::string_view name, int version) const {

@@ -7,10 +7,13 @@
 #include <chrono>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
+#include "adapters/core/status.h"
 #include "storage/db.h"
 
 namespace drivegw::storage::internal {
@@ -53,6 +56,44 @@ std::string SetLabel(const VersionedSetNames& names, std::string_view name);
 // InvalidArgument "<field>: <limit> is outside 0..<max>".
 absl::Status CheckLimit(int limit, int max, std::string_view field);
 
+// Steps `stmt` to the end, `read` (Statement -> StatusOr<T>) turning each row into a T.
+template <class T, class Read>
+absl::StatusOr<std::vector<T>> ReadAll(Statement& stmt, const Read& read) {
+  std::vector<T> out;
+  while (true) {
+    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+    if (!row) break;
+    DGW_ASSIGN_OR_RETURN(T t, read(stmt));
+    out.push_back(std::move(t));
+  }
+  return out;
+}
+
+// The fields every version type has (version, author, comment, created_at); the repo decodes
+// row.payload into its own member.
+template <class V>
+V VersionFields(const VersionRow& row) {
+  V v;
+  v.version = row.version;
+  v.author = row.author;
+  v.comment = row.comment;
+  v.created_at = row.created_at;
+  return v;
+}
+
+// Each row through `decode` (VersionRow -> StatusOr<V>), order kept; the first error wins.
+template <class V, class Decode>
+absl::StatusOr<std::vector<V>> DecodeVersions(const std::vector<VersionRow>& rows,
+                                              const Decode& decode) {
+  std::vector<V> out;
+  out.reserve(rows.size());
+  for (const VersionRow& row : rows) {
+    DGW_ASSIGN_OR_RETURN(V v, decode(row));
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
 class VersionedSetStore {
  public:
   VersionedSetStore(Db& db, const VersionedSetNames& names) : db_(&db), names_(names) {}
@@ -74,6 +115,18 @@ class VersionedSetStore {
                              const std::string& payload) const;
 
   // Whole operations, each in its own transaction or lock.
+  // The row of `select` (a SELECT of the sets table aliased `s`) for `name`, read by `read`
+  // (Statement -> StatusOr<Set>); NotFound naming the set.
+  template <class Read>
+  auto GetSet(const char* select, std::string_view name, const Read& read) const
+      -> decltype(read(std::declval<const Statement&>())) {
+    auto lock = db_->Lock();
+    DGW_ASSIGN_OR_RETURN(Statement stmt, db_->Prepare(absl::StrCat(select, " WHERE s.name = ?1")));
+    DGW_RETURN_IF_ERROR(stmt.Bind(1, name));
+    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+    if (!row) return NotFound(name);
+    return read(stmt);
+  }
   absl::Status Delete(std::string_view name, std::string_view expected_etag) const;
   absl::StatusOr<std::vector<VersionRow>> ListVersions(std::string_view name) const;  // newest 1st
   absl::StatusOr<VersionRow> GetVersion(std::string_view name, int version) const;
