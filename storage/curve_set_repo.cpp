@@ -8,13 +8,11 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/status.h"
-#include "storage/audit_log.h"
 #include "storage/versioned_set_store.h"
 
 namespace drivegw::storage {
 namespace {
 
-using internal::NowMs;
 using internal::ReadTime;
 using nlohmann::json;
 using LM = LinMotParametricCurve;
@@ -216,24 +214,18 @@ absl::StatusOr<StoredCurveSet> CurveSetRepo::Create(const CurveSet& set, std::st
   const internal::VersionedSetStore store = Store(*db_);
   DGW_RETURN_IF_ERROR(ValidateForWrite(store, set));
   DGW_ASSIGN_OR_RETURN(const std::string curves_json, CurvesToJson(set.curves));
-  const std::string ts = FormatTimestamp(NowMs());
-  StoredCurveSet result;
-  DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
-    DGW_RETURN_IF_ERROR(store.CheckNameFree(set.name));
+  const auto insert_row = [&](const std::string& ts, const std::string& etag) -> absl::Status {
     DGW_ASSIGN_OR_RETURN(Statement insert,
                          db_->Prepare("INSERT INTO curve_sets (name, description, created_at, "
                                       "updated_at, version, etag) VALUES (?1, ?2, ?3, ?3, 1, ?4)"));
     DGW_RETURN_IF_ERROR(insert.Bind(1, std::string_view(set.name)));
     DGW_RETURN_IF_ERROR(insert.Bind(2, std::string_view(set.description)));
     DGW_RETURN_IF_ERROR(insert.Bind(3, std::string_view(ts)));
-    DGW_RETURN_IF_ERROR(insert.Bind(4, internal::NewEtag()));
-    DGW_RETURN_IF_ERROR(insert.Run());
-    DGW_RETURN_IF_ERROR(store.InsertVersion(set.name, 1, author, comment, ts, curves_json));
-    // Read back inside the transaction: the caller gets this version, not a later writer's.
-    DGW_ASSIGN_OR_RETURN(result, Get(set.name));
-    return absl::OkStatus();
-  }));
-  return result;
+    DGW_RETURN_IF_ERROR(insert.Bind(4, std::string_view(etag)));
+    return insert.Run();
+  };
+  return store.Create<StoredCurveSet>(set.name, author, comment, curves_json, insert_row,
+                                      [this](std::string_view name) { return Get(name); });
 }
 
 absl::StatusOr<StoredCurveSet> CurveSetRepo::Get(std::string_view name) {
@@ -265,14 +257,8 @@ absl::StatusOr<StoredCurveSet> CurveSetRepo::Update(const CurveSet& set,
   const internal::VersionedSetStore store = Store(*db_);
   DGW_RETURN_IF_ERROR(ValidateForWrite(store, set));
   DGW_ASSIGN_OR_RETURN(const std::string curves_json, CurvesToJson(set.curves));
-  const std::string ts = FormatTimestamp(NowMs());
-  StoredCurveSet result;
-  DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
-    // BEGIN IMMEDIATE holds the write lock from here: the etag read and the write are atomic
-    // even against another connection or process.
-    DGW_ASSIGN_OR_RETURN(const internal::SetHead head, store.ReadHead(set.name));
-    DGW_RETURN_IF_ERROR(store.CheckEtag(head, set.name, expected_etag));
-    const int version = head.version + 1;
+  const auto update_row = [&](const std::string& ts, int version,
+                              const std::string& etag) -> absl::Status {
     DGW_ASSIGN_OR_RETURN(Statement update,
                          db_->Prepare("UPDATE curve_sets SET description = ?2, updated_at = ?3, "
                                       "version = ?4, etag = ?5 WHERE name = ?1"));
@@ -280,13 +266,12 @@ absl::StatusOr<StoredCurveSet> CurveSetRepo::Update(const CurveSet& set,
     DGW_RETURN_IF_ERROR(update.Bind(2, std::string_view(set.description)));
     DGW_RETURN_IF_ERROR(update.Bind(3, std::string_view(ts)));
     DGW_RETURN_IF_ERROR(update.Bind(4, version));
-    DGW_RETURN_IF_ERROR(update.Bind(5, internal::NewEtag()));
-    DGW_RETURN_IF_ERROR(update.Run());
-    DGW_RETURN_IF_ERROR(store.InsertVersion(set.name, version, author, comment, ts, curves_json));
-    DGW_ASSIGN_OR_RETURN(result, Get(set.name));
-    return absl::OkStatus();
-  }));
-  return result;
+    DGW_RETURN_IF_ERROR(update.Bind(5, std::string_view(etag)));
+    return update.Run();
+  };
+  return store.Update<StoredCurveSet>(set.name, expected_etag, author, comment, curves_json,
+                                      update_row,
+                                      [this](std::string_view name) { return Get(name); });
 }
 
 absl::Status CurveSetRepo::Delete(std::string_view name, std::string_view expected_etag) {

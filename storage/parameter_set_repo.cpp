@@ -157,10 +157,7 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Create(const ParameterSet& set,
   DGW_RETURN_IF_ERROR(ValidateForWrite(store, set));
   if (set.family.empty()) return absl::InvalidArgumentError("parameter_set.family: empty");
   DGW_ASSIGN_OR_RETURN(const std::string values_json, ValuesToJson(set.values));
-  const std::string ts = FormatTimestamp(NowMs());
-  ParameterSet result;
-  DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
-    DGW_RETURN_IF_ERROR(store.CheckNameFree(set.name));
+  const auto insert_row = [&](const std::string& ts, const std::string& etag) -> absl::Status {
     DGW_ASSIGN_OR_RETURN(
         Statement insert,
         db_->Prepare("INSERT INTO parameter_sets (name, family, model, description, "
@@ -172,14 +169,11 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Create(const ParameterSet& set,
     DGW_RETURN_IF_ERROR(insert.Bind(4, std::string_view(set.description)));
     DGW_RETURN_IF_ERROR(insert.Bind(5, set.target_stored ? 1 : 0));
     DGW_RETURN_IF_ERROR(insert.Bind(6, std::string_view(ts)));
-    DGW_RETURN_IF_ERROR(insert.Bind(7, internal::NewEtag()));
-    DGW_RETURN_IF_ERROR(insert.Run());
-    DGW_RETURN_IF_ERROR(store.InsertVersion(set.name, 1, set.author, comment, ts, values_json));
-    // Read back inside the transaction: the caller gets this version, not a later writer's.
-    DGW_ASSIGN_OR_RETURN(result, Get(set.name));
-    return absl::OkStatus();
-  }));
-  return result;
+    DGW_RETURN_IF_ERROR(insert.Bind(7, std::string_view(etag)));
+    return insert.Run();
+  };
+  return store.Create<ParameterSet>(set.name, set.author, comment, values_json, insert_row,
+                                    [this](std::string_view name) { return Get(name); });
 }
 
 absl::StatusOr<ParameterSet> ParameterSetRepo::Get(std::string_view name) {
@@ -215,13 +209,8 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Update(const ParameterSet& set,
   const internal::VersionedSetStore store = Store(*db_);
   DGW_RETURN_IF_ERROR(ValidateForWrite(store, set));
   DGW_ASSIGN_OR_RETURN(const std::string values_json, ValuesToJson(set.values));
-  const std::string ts = FormatTimestamp(NowMs());
-  ParameterSet result;
-  DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
-    // BEGIN IMMEDIATE holds the write lock from here, so the etag read and the write are atomic
-    // even against another connection or process.
-    DGW_ASSIGN_OR_RETURN(const internal::SetHead head, store.ReadHead(set.name));
-    DGW_RETURN_IF_ERROR(store.CheckEtag(head, set.name, expected_etag));
+  const auto update_row = [&](const std::string& ts, int version,
+                              const std::string& etag) -> absl::Status {
     DGW_ASSIGN_OR_RETURN(Statement family,
                          db_->Prepare("SELECT family FROM parameter_sets WHERE name = ?1"));
     DGW_RETURN_IF_ERROR(family.Bind(1, std::string_view(set.name)));
@@ -232,7 +221,6 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Update(const ParameterSet& set,
                                                      "' differs from ", SetLabel(set.name),
                                                      "'s family '", family.ColumnText(0), "'"));
     }
-    const int version = head.version + 1;
     DGW_ASSIGN_OR_RETURN(
         Statement update,
         db_->Prepare("UPDATE parameter_sets SET model = ?2, description = ?3, target_stored = ?4, "
@@ -243,14 +231,12 @@ absl::StatusOr<ParameterSet> ParameterSetRepo::Update(const ParameterSet& set,
     DGW_RETURN_IF_ERROR(update.Bind(4, set.target_stored ? 1 : 0));
     DGW_RETURN_IF_ERROR(update.Bind(5, std::string_view(ts)));
     DGW_RETURN_IF_ERROR(update.Bind(6, version));
-    DGW_RETURN_IF_ERROR(update.Bind(7, internal::NewEtag()));
-    DGW_RETURN_IF_ERROR(update.Run());
-    DGW_RETURN_IF_ERROR(
-        store.InsertVersion(set.name, version, set.author, comment, ts, values_json));
-    DGW_ASSIGN_OR_RETURN(result, Get(set.name));
-    return absl::OkStatus();
-  }));
-  return result;
+    DGW_RETURN_IF_ERROR(update.Bind(7, std::string_view(etag)));
+    return update.Run();
+  };
+  return store.Update<ParameterSet>(set.name, expected_etag, set.author, comment, values_json,
+                                    update_row,
+                                    [this](std::string_view name) { return Get(name); });
 }
 
 absl::Status ParameterSetRepo::Delete(std::string_view name, std::string_view expected_etag) {

@@ -14,6 +14,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 #include "adapters/core/status.h"
+#include "storage/audit_log.h"
 #include "storage/db.h"
 
 namespace drivegw::storage::internal {
@@ -115,6 +116,50 @@ class VersionedSetStore {
                              const std::string& payload) const;
 
   // Whole operations, each in its own transaction or lock.
+  // Version 1 of a new set in one transaction: AlreadyExists when the name is taken, then
+  // `insert_row(ts, etag)` writes the repo's own set row (version 1, created_at = updated_at = ts),
+  // then the version row. `get(name)` reads the result back inside the transaction, so the caller
+  // gets this version, not a later writer's.
+  template <class Set, class InsertRow, class Get>
+  absl::StatusOr<Set> Create(std::string_view name, std::string_view author,
+                             std::string_view comment, const std::string& payload,
+                             const InsertRow& insert_row, const Get& get) const {
+    const std::string ts = FormatTimestamp(NowMs());
+    Set result;
+    DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
+      DGW_RETURN_IF_ERROR(CheckNameFree(name));
+      DGW_RETURN_IF_ERROR(insert_row(ts, NewEtag()));
+      DGW_RETURN_IF_ERROR(InsertVersion(name, 1, author, comment, ts, payload));
+      DGW_ASSIGN_OR_RETURN(result, get(name));
+      return absl::OkStatus();
+    }));
+    return result;
+  }
+
+  // The next version of `name` in one transaction: the etag rule of CheckEtag(), then
+  // `update_row(ts, version, etag)` rewrites the repo's own set row (it may refuse first), then
+  // the version row; `get(name)` reads the result back as in Create().
+  template <class Set, class UpdateRow, class Get>
+  absl::StatusOr<Set> Update(std::string_view name, std::string_view expected_etag,
+                             std::string_view author, std::string_view comment,
+                             const std::string& payload, const UpdateRow& update_row,
+                             const Get& get) const {
+    const std::string ts = FormatTimestamp(NowMs());
+    Set result;
+    DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
+      // BEGIN IMMEDIATE holds the write lock from here, so the etag read and the write are
+      // atomic even against another connection or process.
+      DGW_ASSIGN_OR_RETURN(const SetHead head, ReadHead(name));
+      DGW_RETURN_IF_ERROR(CheckEtag(head, name, expected_etag));
+      const int version = head.version + 1;
+      DGW_RETURN_IF_ERROR(update_row(ts, version, NewEtag()));
+      DGW_RETURN_IF_ERROR(InsertVersion(name, version, author, comment, ts, payload));
+      DGW_ASSIGN_OR_RETURN(result, get(name));
+      return absl::OkStatus();
+    }));
+    return result;
+  }
+
   // The row of `select` (a SELECT of the sets table aliased `s`) for `name`, read by `read`
   // (Statement -> StatusOr<Set>); NotFound naming the set.
   template <class Read>
