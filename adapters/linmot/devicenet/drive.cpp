@@ -15,6 +15,7 @@
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
 #include "adapters/core/units.h"
+#include "adapters/linmot/common/session_peer.h"
 
 namespace drivegw::linmot::devicenet {
 namespace {
@@ -263,15 +264,8 @@ void LinMotDnDrive::DoDeactivate() {
       WaitControlWordLocked(lock, clock_.Now() + bound);
     }
   }
-  std::shared_ptr<Session> session;
-  PeerId id = 0;
-  {
-    std::lock_guard lock(mu_);
-    session = std::move(session_);
-    id = peer_id_;
-    active_ = false;
-  }
-  if (session) session->Unregister(id);  // Release; no callback runs after this returns
+  // Unregisters outside mu_; no callback runs after this returns.
+  std::shared_ptr<Session> session = DetachSessionPeer(mu_, session_, peer_id_, active_);
   {
     std::lock_guard lock(mu_);
     if (motion_) UpdateCommand(motion_->id, CommandState::kAborted, "drive deactivated");
@@ -287,25 +281,11 @@ void LinMotDnDrive::DoDeactivate() {
 }
 
 std::optional<PeerCounters> LinMotDnDrive::exchange_counters() const {
-  std::shared_ptr<Session> session;
-  PeerId id = 0;
-  {
-    std::lock_guard lock(mu_);
-    session = session_;
-    id = peer_id_;
-  }
-  if (!session) return std::nullopt;
-  return session->peer_counters(id);
+  return SessionPeerCounters(mu_, session_, peer_id_);
 }
 
 std::optional<SessionCounters> LinMotDnDrive::session_counters() const {
-  std::shared_ptr<Session> session;
-  {
-    std::lock_guard lock(mu_);
-    session = session_;
-  }
-  if (!session) return std::nullopt;
-  return session->counters();
+  return SessionCountersOf(mu_, session_);
 }
 
 // ---------------------------------------------------------------------------------------------

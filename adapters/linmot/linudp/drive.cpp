@@ -13,6 +13,7 @@
 #include "adapters/core/status.h"
 #include "adapters/linmot/mc/control_word.h"
 #include "adapters/core/units.h"
+#include "adapters/linmot/common/session_peer.h"
 #include "adapters/linmot/mc/error_codes.h"
 #include "adapters/linmot/mc/warn_word.h"
 
@@ -209,15 +210,8 @@ absl::Status LinMotUdpDrive::DoActivate() {
 }
 
 void LinMotUdpDrive::DoDeactivate() {
-  std::shared_ptr<Session> session;
-  PeerId id = 0;
-  {
-    std::lock_guard lock(mu_);
-    session = std::move(session_);
-    id = peer_id_;
-    active_ = false;
-  }
-  if (session) session->Unregister(id);  // no callback runs after this returns
+  // Unregisters outside mu_; no callback runs after this returns.
+  std::shared_ptr<Session> session = DetachSessionPeer(mu_, session_, peer_id_, active_);
   {
     std::lock_guard lock(mu_);
     if (motion_) UpdateCommand(motion_->id, CommandState::kAborted, "drive deactivated");
@@ -233,25 +227,11 @@ void LinMotUdpDrive::DoDeactivate() {
 }
 
 std::optional<ExchangeCounters> LinMotUdpDrive::exchange_counters() const {
-  std::shared_ptr<Session> session;
-  PeerId id = 0;
-  {
-    std::lock_guard lock(mu_);
-    session = session_;
-    id = peer_id_;
-  }
-  if (!session) return std::nullopt;
-  return session->peer_counters(id);
+  return SessionPeerCounters(mu_, session_, peer_id_);
 }
 
 std::optional<SessionCounters> LinMotUdpDrive::session_counters() const {
-  std::shared_ptr<Session> session;
-  {
-    std::lock_guard lock(mu_);
-    session = session_;
-  }
-  if (!session) return std::nullopt;
-  return session->counters();
+  return SessionCountersOf(mu_, session_);
 }
 
 std::optional<transport::Endpoint> LinMotUdpDrive::local_endpoint() const {
