@@ -5,6 +5,7 @@
 // always called outside that mutex (lock order: session lock -> drive mutex), so every helper
 // copies or moves the pointer under the lock and calls the session after releasing it.
 
+#include <condition_variable>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -33,8 +34,8 @@ std::shared_ptr<Session> DetachSessionPeer(Mutex& mu, std::shared_ptr<Session>& 
 
 // The session's per-peer counters for `peer_id`, or nullopt while not registered.
 template <typename Mutex, typename Session, typename Id>
-auto SessionPeerCounters(Mutex& mu, const std::shared_ptr<Session>& session_slot,
-                         const Id& peer_id) -> decltype(session_slot->peer_counters(peer_id)) {
+auto SessionPeerCounters(Mutex& mu, const std::shared_ptr<Session>& session_slot, const Id& peer_id)
+    -> decltype(session_slot->peer_counters(peer_id)) {
   std::shared_ptr<Session> session;
   Id id{};
   {
@@ -57,6 +58,24 @@ auto SessionCountersOf(Mutex& mu, const std::shared_ptr<Session>& session_slot)
   }
   if (!session) return std::nullopt;
   return session->counters();
+}
+
+// The drives' wait loop under the drive mutex: checked in this order on every wake-up —
+// deactivated, condition reached, link lost, deadline passed — so that a drive deactivated while
+// the condition also holds reports inactive. `Wait` is the drive's own enum with kReached,
+// kDeadline, kOffline and kInactive.
+template <typename Wait, typename Lock, typename Clock, typename TimePoint, typename Active,
+          typename Reached, typename Offline>
+Wait WaitPeerLocked(std::condition_variable& cv, Lock& lock, const Clock& clock, TimePoint deadline,
+                    Active active, Reached reached, Offline offline) {
+  for (;;) {
+    if (!active()) return Wait::kInactive;
+    if (reached()) return Wait::kReached;
+    if (offline()) return Wait::kOffline;
+    const auto now = clock.Now();
+    if (now >= deadline) return Wait::kDeadline;
+    cv.wait_for(lock, deadline - now);
+  }
 }
 
 }  // namespace drivegw::linmot

@@ -706,14 +706,9 @@ template <typename Pred>
 LinMotDnDrive::Wait LinMotDnDrive::WaitLocked(std::unique_lock<std::mutex>& lock,
                                               TimePoint deadline, Pred reached) {
   const uint64_t connection = connection_;
-  for (;;) {
-    if (!active_) return Wait::kInactive;
-    if (reached()) return Wait::kReached;
-    if (link_ == LinkState::kOffline || connection_ != connection) return Wait::kOffline;
-    const TimePoint now = clock_.Now();
-    if (now >= deadline) return Wait::kDeadline;
-    cv_.wait_for(lock, deadline - now);
-  }
+  return WaitPeerLocked<Wait>(
+      cv_, lock, clock_, deadline, [&] { return active_; }, reached,
+      [&] { return link_ == LinkState::kOffline || connection_ != connection; });
 }
 
 LinMotDnDrive::Wait LinMotDnDrive::WaitControlWordLocked(std::unique_lock<std::mutex>& lock,

@@ -570,14 +570,9 @@ template <typename Pred>
 LinMotUdpDrive::Wait LinMotUdpDrive::WaitLocked(std::unique_lock<std::mutex>& lock,
                                                 TimePoint deadline, Pred reached,
                                                 bool tolerate_offline) {
-  for (;;) {
-    if (!active_) return Wait::kInactive;
-    if (reached()) return Wait::kReached;
-    if (link_ == LinkState::kOffline && !tolerate_offline) return Wait::kOffline;
-    const TimePoint now = clock_.Now();
-    if (now >= deadline) return Wait::kDeadline;
-    cv_.wait_for(lock, deadline - now);
-  }
+  return WaitPeerLocked<Wait>(
+      cv_, lock, clock_, deadline, [&] { return active_; }, reached,
+      [&] { return link_ == LinkState::kOffline && !tolerate_offline; });
 }
 
 LinMotUdpDrive::Wait LinMotUdpDrive::WaitControlWordLocked(std::unique_lock<std::mutex>& lock,
