@@ -29,23 +29,7 @@ grpc::ServerUnaryReactor* Offload(WorkerPool& pool, grpc::CallbackServerContext*
     return Offload(pool_, ctx, resp,                                                              \
                    [this, req](const CallContext& c) { return core_.Method(*req, c); });          \
   }
-DGW_PS_RPC(ListParameterDefinitions, ListParameterDefinitionsRequest,
-           ListParameterDefinitionsResponse)
-DGW_PS_RPC(CreateParameterSet, CreateParameterSetRequest, ParameterSet)
-DGW_PS_RPC(GetParameterSet, GetParameterSetRequest, ParameterSet)
-DGW_PS_RPC(ListParameterSets, ListParameterSetsRequest, ListParameterSetsResponse)
-DGW_PS_RPC(UpdateParameterSet, UpdateParameterSetRequest, ParameterSet)
-DGW_PS_RPC(DeleteParameterSet, DeleteParameterSetRequest, DeleteParameterSetResponse)
-DGW_PS_RPC(ListParameterSetVersions, ListParameterSetVersionsRequest,
-           ListParameterSetVersionsResponse)
-DGW_PS_RPC(GetParameterSetVersion, GetParameterSetVersionRequest, ParameterSetVersion)
-DGW_PS_RPC(CaptureParameterSet, CaptureParameterSetRequest, ParameterSet)
-DGW_PS_RPC(DiffParameterSet, DiffParameterSetRequest, DiffParameterSetResponse)
-DGW_PS_RPC(ApplyParameterSet, ApplyParameterSetRequest, Operation)
-DGW_PS_RPC(GetOperation, GetOperationRequest, Operation)
-DGW_PS_RPC(ListOperations, ListOperationsRequest, ListOperationsResponse)
-DGW_PS_RPC(ImportParameterSet, ImportParameterSetRequest, ParameterSet)
-DGW_PS_RPC(ExportParameterSet, ExportParameterSetRequest, ExportParameterSetResponse)
+DGW_PARAMETER_SET_RPCS(DGW_PS_RPC)
 #undef DGW_PS_RPC
 
 }  // namespace drivegw::server

@@ -8,6 +8,25 @@
 
 namespace drivegw::server {
 
+// Every ParameterSetService RPC once: (method, request, response); the header declares and the
+// .cpp defines each through this list.
+#define DGW_PARAMETER_SET_RPCS(X)                                                                \
+  X(ListParameterDefinitions, ListParameterDefinitionsRequest, ListParameterDefinitionsResponse) \
+  X(CreateParameterSet, CreateParameterSetRequest, ParameterSet)                                 \
+  X(GetParameterSet, GetParameterSetRequest, ParameterSet)                                       \
+  X(ListParameterSets, ListParameterSetsRequest, ListParameterSetsResponse)                      \
+  X(UpdateParameterSet, UpdateParameterSetRequest, ParameterSet)                                 \
+  X(DeleteParameterSet, DeleteParameterSetRequest, DeleteParameterSetResponse)                   \
+  X(ListParameterSetVersions, ListParameterSetVersionsRequest, ListParameterSetVersionsResponse) \
+  X(GetParameterSetVersion, GetParameterSetVersionRequest, ParameterSetVersion)                  \
+  X(CaptureParameterSet, CaptureParameterSetRequest, ParameterSet)                               \
+  X(DiffParameterSet, DiffParameterSetRequest, DiffParameterSetResponse)                         \
+  X(ApplyParameterSet, ApplyParameterSetRequest, Operation)                                      \
+  X(GetOperation, GetOperationRequest, Operation)                                                \
+  X(ListOperations, ListOperationsRequest, ListOperationsResponse)                               \
+  X(ImportParameterSet, ImportParameterSetRequest, ParameterSet)                                 \
+  X(ExportParameterSet, ExportParameterSetRequest, ExportParameterSetResponse)
+
 class ParameterSetServiceGrpc final : public v1::ParameterSetService::CallbackService {
  public:
   ParameterSetServiceGrpc(ParameterSetServiceCore& core, WorkerPool& pool)
@@ -16,23 +35,7 @@ class ParameterSetServiceGrpc final : public v1::ParameterSetService::CallbackSe
 #define DGW_PS_RPC(Method, Req, Resp)                                                    \
   grpc::ServerUnaryReactor* Method(grpc::CallbackServerContext* ctx, const v1::Req* req, \
                                    v1::Resp* resp) override;
-  DGW_PS_RPC(ListParameterDefinitions, ListParameterDefinitionsRequest,
-             ListParameterDefinitionsResponse)
-  DGW_PS_RPC(CreateParameterSet, CreateParameterSetRequest, ParameterSet)
-  DGW_PS_RPC(GetParameterSet, GetParameterSetRequest, ParameterSet)
-  DGW_PS_RPC(ListParameterSets, ListParameterSetsRequest, ListParameterSetsResponse)
-  DGW_PS_RPC(UpdateParameterSet, UpdateParameterSetRequest, ParameterSet)
-  DGW_PS_RPC(DeleteParameterSet, DeleteParameterSetRequest, DeleteParameterSetResponse)
-  DGW_PS_RPC(ListParameterSetVersions, ListParameterSetVersionsRequest,
-             ListParameterSetVersionsResponse)
-  DGW_PS_RPC(GetParameterSetVersion, GetParameterSetVersionRequest, ParameterSetVersion)
-  DGW_PS_RPC(CaptureParameterSet, CaptureParameterSetRequest, ParameterSet)
-  DGW_PS_RPC(DiffParameterSet, DiffParameterSetRequest, DiffParameterSetResponse)
-  DGW_PS_RPC(ApplyParameterSet, ApplyParameterSetRequest, Operation)
-  DGW_PS_RPC(GetOperation, GetOperationRequest, Operation)
-  DGW_PS_RPC(ListOperations, ListOperationsRequest, ListOperationsResponse)
-  DGW_PS_RPC(ImportParameterSet, ImportParameterSetRequest, ParameterSet)
-  DGW_PS_RPC(ExportParameterSet, ExportParameterSetRequest, ExportParameterSetResponse)
+  DGW_PARAMETER_SET_RPCS(DGW_PS_RPC)
 #undef DGW_PS_RPC
 
  private:
