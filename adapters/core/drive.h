@@ -16,6 +16,7 @@
 #include "absl/strings/str_cat.h"
 #include "adapters/core/clock.h"
 #include "adapters/core/command.h"
+#include "adapters/core/curve.h"
 #include "adapters/core/drive_config.h"
 
 namespace drivegw {
@@ -40,6 +41,19 @@ struct CommandInfo {
   std::string message;
   WallTime created{};
   std::optional<WallTime> ended;
+  // Fraction 0..1 of a command that knows how far it is (RunCurve: elapsed curve time / duration);
+  // empty for the others. Published with the status like the state (DriveBase::UpdateProgress).
+  std::optional<double> progress;
+};
+
+// How RunCurve starts a curve (issue 6; docs/decisions/013-curve-run.md).
+struct CurveRunOptions {
+  // The curve starts where its first point is; the axis must stand there within this tolerance
+  // (a jump would be a following error on the drive), else FailedPrecondition naming both.
+  double start_tolerance_mm = 0.1;
+  // LinMot: a PositionTimeCurve is converted and downloaded under this curve ID (1..100) before
+  // it runs; a LinMotParametricCurve runs under its own ID.
+  int linmot_scratch_curve_id = 100;
 };
 
 struct NativeState {
@@ -130,6 +144,33 @@ class Drive {
     return absl::UnimplementedError(
         absl::StrCat("drive '", config().name, "': family '", config().family,
                      "' has no coordinated (interpolated) multi-axis move"));
+  }
+
+  // Curves (issue 6; decision 013). Families that store curves on the drive (LinMot curve service)
+  // download a parametric curve under its ID and verify it by reading it back; UploadCurve reads
+  // one (NotFound when the drive has no curve with that ID). Others: Unimplemented.
+  virtual absl::Status DownloadCurve(const LinMotParametricCurve& curve) {
+    (void)curve;
+    return absl::UnimplementedError(absl::StrCat("drive '", config().name, "': family '",
+                                                 config().family,
+                                                 "' stores no curves on the drive (RunCurve "
+                                                 "streams them)"));
+  }
+  virtual absl::StatusOr<LinMotParametricCurve> UploadCurve(int curve_id) {
+    (void)curve_id;
+    return absl::UnimplementedError(absl::StrCat("drive '", config().name, "': family '",
+                                                 config().family,
+                                                 "' stores no curves on the drive"));
+  }
+  // Runs `curve` as one motion command "RunCurve": LinMot natively (time-curve commands 04xh),
+  // STOBER as cyclic position set points, Trinamic as a timed sequence of moves. Returns once the
+  // drive accepted it (ACTIVE); the handle carries progress and ends DONE (at the curve's end
+  // point) or ERROR/ABORTED. The caller validated the curve against the axis (ValidateCurve).
+  virtual absl::StatusOr<CommandInfo> RunCurve(const Curve& curve, const CurveRunOptions& options) {
+    (void)curve;
+    (void)options;
+    return absl::UnimplementedError(absl::StrCat("drive '", config().name, "': family '",
+                                                 config().family, "' cannot run curves"));
   }
 
   virtual absl::StatusOr<int64_t> ReadParameter(const ParameterRef& ref) = 0;

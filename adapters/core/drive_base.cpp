@@ -1,6 +1,8 @@
 // DriveBase: lifecycle, status snapshots and command handles shared by every family.
 #include "adapters/core/drive_base.h"
 
+#include <algorithm>
+
 #include "absl/strings/str_cat.h"
 #include "adapters/core/log.h"
 
@@ -11,9 +13,12 @@ constexpr size_t kCommandHistory = 256;
 
 const char* ToString(Lifecycle l) {
   switch (l) {
-    case Lifecycle::kUnconfigured: return "UNCONFIGURED";
-    case Lifecycle::kActive: return "ACTIVE";
-    case Lifecycle::kInactive: return "INACTIVE";
+    case Lifecycle::kUnconfigured:
+      return "UNCONFIGURED";
+    case Lifecycle::kActive:
+      return "ACTIVE";
+    case Lifecycle::kInactive:
+      return "INACTIVE";
   }
   return "?";
 }
@@ -21,24 +26,36 @@ const char* ToString(Lifecycle l) {
 
 const char* ToString(DriveState s) {
   switch (s) {
-    case DriveState::kOffline: return "OFFLINE";
-    case DriveState::kDisabled: return "DISABLED";
-    case DriveState::kReady: return "READY";
-    case DriveState::kEnabled: return "ENABLED";
-    case DriveState::kMoving: return "MOVING";
-    case DriveState::kHoming: return "HOMING";
-    case DriveState::kFault: return "FAULT";
+    case DriveState::kOffline:
+      return "OFFLINE";
+    case DriveState::kDisabled:
+      return "DISABLED";
+    case DriveState::kReady:
+      return "READY";
+    case DriveState::kEnabled:
+      return "ENABLED";
+    case DriveState::kMoving:
+      return "MOVING";
+    case DriveState::kHoming:
+      return "HOMING";
+    case DriveState::kFault:
+      return "FAULT";
   }
   return "?";
 }
 
 const char* ToString(CommandState s) {
   switch (s) {
-    case CommandState::kBusy: return "BUSY";
-    case CommandState::kActive: return "ACTIVE";
-    case CommandState::kDone: return "DONE";
-    case CommandState::kAborted: return "ABORTED";
-    case CommandState::kError: return "ERROR";
+    case CommandState::kBusy:
+      return "BUSY";
+    case CommandState::kActive:
+      return "ACTIVE";
+    case CommandState::kDone:
+      return "DONE";
+    case CommandState::kAborted:
+      return "ABORTED";
+    case CommandState::kError:
+      return "ERROR";
   }
   return "?";
 }
@@ -51,17 +68,21 @@ absl::Status DriveBase::Activate() {
   {
     std::lock_guard lock(mu_);
     if (lifecycle_ == Lifecycle::kActive) {
-      return absl::FailedPreconditionError(
-          absl::StrCat("drive '", config_.name, "': Activate needs state UNCONFIGURED or INACTIVE, is ACTIVE"));
+      return absl::FailedPreconditionError(absl::StrCat(
+          "drive '", config_.name, "': Activate needs state UNCONFIGURED or INACTIVE, is ACTIVE"));
     }
   }
   absl::Status s = DoActivate();
   if (!s.ok()) {
-    return absl::Status(s.code(), absl::StrCat("drive '", config_.name, "': activate: ", s.message()));
+    return absl::Status(s.code(),
+                        absl::StrCat("drive '", config_.name, "': activate: ", s.message()));
   }
   std::lock_guard lock(mu_);
-  log::Info("lifecycle", log::Fields().Add("drive", config_.name).Add("family", config_.family)
-                             .Add("from", ToString(lifecycle_)).Add("to", "ACTIVE"));
+  log::Info("lifecycle", log::Fields()
+                             .Add("drive", config_.name)
+                             .Add("family", config_.family)
+                             .Add("from", ToString(lifecycle_))
+                             .Add("to", "ACTIVE"));
   lifecycle_ = Lifecycle::kActive;
   return absl::OkStatus();
 }
@@ -74,7 +95,8 @@ void DriveBase::Deactivate() {
   DoDeactivate();
   std::lock_guard lock(mu_);
   lifecycle_ = Lifecycle::kInactive;
-  log::Info("lifecycle", log::Fields().Add("drive", config_.name).Add("from", "ACTIVE").Add("to", "INACTIVE"));
+  log::Info("lifecycle",
+            log::Fields().Add("drive", config_.name).Add("from", "ACTIVE").Add("to", "INACTIVE"));
   changed_.notify_all();
 }
 
@@ -87,7 +109,8 @@ absl::Status DriveBase::RequireActive(const char* operation) const {
   std::lock_guard lock(mu_);
   if (lifecycle_ == Lifecycle::kActive) return absl::OkStatus();
   return absl::FailedPreconditionError(absl::StrCat("drive '", config_.name, "': ", operation,
-                                                    " needs lifecycle ACTIVE, is ", ToString(lifecycle_)));
+                                                    " needs lifecycle ACTIVE, is ",
+                                                    ToString(lifecycle_)));
 }
 
 DriveStatus DriveBase::GetStatus() const {
@@ -163,8 +186,11 @@ CommandInfo DriveBase::StartCommand(const std::string& kind, bool supersedes_mot
   while (commands_.size() > kCommandHistory) commands_.pop_front();
   last_command_id_ = entry.info.id;
   RepublishLocked();
-  log::Debug("command", log::Fields().Add("drive", config_.name).Add("id", entry.info.id)
-                            .Add("kind", kind).Add("state", "BUSY"));
+  log::Debug("command", log::Fields()
+                            .Add("drive", config_.name)
+                            .Add("id", entry.info.id)
+                            .Add("kind", kind)
+                            .Add("state", "BUSY"));
   return entry.info;
 }
 
@@ -175,8 +201,21 @@ void DriveBase::UpdateCommand(uint64_t id, CommandState state, const std::string
   e->info.state = state;
   if (!message.empty()) e->info.message = message;
   if (IsFinal(state)) e->info.ended = std::chrono::system_clock::now();
-  log::Debug("command", log::Fields().Add("drive", config_.name).Add("id", id)
-                            .Add("kind", e->info.kind).Add("state", ToString(state)));
+  log::Debug("command", log::Fields()
+                            .Add("drive", config_.name)
+                            .Add("id", id)
+                            .Add("kind", e->info.kind)
+                            .Add("state", ToString(state)));
+  RepublishLocked();
+}
+
+void DriveBase::UpdateProgress(uint64_t id, double fraction) {
+  std::lock_guard lock(mu_);
+  Entry* e = FindLocked(id);
+  if (e == nullptr || IsFinal(e->info.state)) return;
+  const double clamped = std::clamp(fraction, 0.0, 1.0);
+  if (e->info.progress == clamped) return;
+  e->info.progress = clamped;
   RepublishLocked();
 }
 

@@ -39,6 +39,8 @@ class DriveBase : public Drive {
   CommandInfo StartCommand(const std::string& kind, bool supersedes_motion);
   // Moves a command to a new state (final states are sticky) and republishes the status.
   void UpdateCommand(uint64_t id, CommandState state, const std::string& message = "");
+  // Sets the progress (clamped to 0..1) of a non-final command and republishes the status.
+  void UpdateProgress(uint64_t id, double fraction);
   // Non-final motion commands (for families that end them on target / abort / fault).
   std::vector<uint64_t> OpenMotionCommands() const;
 
