@@ -61,6 +61,7 @@ v1::CommandHandle ToProto(const std::string& drive, const CommandInfo& c) {
   h.set_message(c.message);
   *h.mutable_create_time() = ToTimestamp(c.created);
   if (c.ended) *h.mutable_end_time() = ToTimestamp(*c.ended);
+  if (c.progress) h.mutable_progress()->set_value(*c.progress);
   return h;
 }
 
