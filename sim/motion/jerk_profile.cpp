@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -73,6 +74,13 @@ class Builder {
   // After a ramp to rest: the residue is rounding (~1e-16), so call it rest exactly; otherwise a
   // residual sign could be read as "still moving the other way".
   void SettleAtRest() { state_.velocity = state_.acceleration = 0; }
+  // After a ramp to `velocity`: the same for a moving state. Needed where the ramp is followed
+  // by another one at speed (a pass, decision 1161): a residual acceleration of rounding size
+  // would otherwise add or drop a correction ramp of ~1e-9 s, which at speed moves ~1e-6 mm.
+  void SettleAt(double velocity) {
+    state_.velocity = velocity;
+    state_.acceleration = 0;
+  }
 
   const Kinematics& state() const { return state_; }
   std::vector<Segment> Take() { return std::move(segments_); }
@@ -225,6 +233,80 @@ void MoveTowards(Builder& b, double dir, double target, const JerkLimits& l) {
 // from a state exactly on a braking curve must not turn into an intermediate stop by rounding.
 double Slack(double a, double b) { return 1e-12 * std::max({1.0, std::abs(a), std::abs(b)}); }
 
+// Appends an approach that passes `target` in direction `dir` at the speed ve > 0 with a = 0
+// (JerkProfile::PlanPass, decision 1161). The motion is not heading the other way (or is already
+// turning round towards it). Families, in this order, mirroring MoveTowards with "ramp to rest"
+// replaced by "ramp to ve":
+//  1. ramp to max_velocity, cruise, ramp to ve;
+//  2. ramp to a peak u in [max(u_z, ve), max_velocity], then to ve (u by bisection);
+//  3. approaching faster than ve and too close for 2: slow to ve at once with a reduced
+//     deceleration d' in (0, deceleration] (d' by bisection);
+//  4. approaching slower than ve and too close to reach it: pass at the highest speed u in
+//     [max(u_z, 0), ve] that a single ramp reaches within the distance.
+// Returns the pass speed, or nullopt when none of them fits (the target is too close to slow
+// down to ve, or to take the acceleration out, before it): the caller stops first.
+std::optional<double> PassTowards(Builder& b, double dir, double target, double ve,
+                                  const JerkLimits& l) {
+  const Kinematics k = b.state();
+  const double dist = dir * (target - k.position);
+  const double vmax = l.max_velocity;
+  const auto distance_of = [&](const Builder& t) {
+    return dir * (t.state().position - k.position);
+  };
+  // "Ramp to u, then to ve", each ramp settled on its velocity (Builder::SettleAt).
+  const auto up_and_down = [&](Builder& t, double u, double cruise) {
+    Ramp(t, dir * u, l);
+    t.SettleAt(dir * u);
+    t.Add(cruise, 0);
+    Ramp(t, dir * ve, l);
+    t.SettleAt(dir * ve);
+  };
+  const auto reach = [&](double u) {
+    Builder t(k);
+    up_and_down(t, u, 0);
+    return distance_of(t);
+  };
+  const double reach_vmax = reach(vmax);
+  if (dist >= reach_vmax) {
+    up_and_down(b, vmax, (dist - reach_vmax) / vmax);
+    return ve;
+  }
+  const double uz = dir * ZeroingVelocity(k, l.jerk);
+  const double u_lo = std::max(uz, ve);
+  if (u_lo < vmax && dist >= reach(u_lo)) {
+    up_and_down(b, Bisect(reach, u_lo, vmax, dist), 0);
+    return ve;
+  }
+  if (uz > ve) {
+    const auto brake = [&](double d) {
+      Builder t(k);
+      JerkLimits reduced = l;
+      reduced.deceleration = d;
+      Ramp(t, dir * ve, reduced);
+      return distance_of(t);
+    };
+    if (brake(l.deceleration) > dist + Slack(target, k.position)) return std::nullopt;
+    double lo = l.deceleration;
+    for (int i = 0; i < 2000 && brake(lo) < dist; ++i) lo /= 2;
+    JerkLimits reduced = l;
+    reduced.deceleration = Bisect(brake, lo, l.deceleration, dist, /*decreasing=*/true);
+    Ramp(b, dir * ve, reduced);
+    b.SettleAt(dir * ve);
+    return ve;
+  }
+  const auto one = [&](double u) {
+    Builder t(k);
+    Ramp(t, dir * u, l);
+    return distance_of(t);
+  };
+  const double lo = std::max(uz, 0.0);
+  if (one(lo) > dist + Slack(target, k.position)) return std::nullopt;
+  const double u = Bisect(one, lo, ve, dist);
+  Ramp(b, dir * u, l);
+  b.SettleAt(dir * u);
+  return u;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -276,6 +358,64 @@ absl::StatusOr<JerkProfile> JerkProfile::Plan(Kinematics start, double target, J
   }
   // The ramps end on the target with v = a = 0 up to rounding; snap to the exact target.
   return JerkProfile(FromSegments(start, b.Take(), /*endless=*/false, target), intermediate_stop);
+}
+
+absl::StatusOr<JerkProfile> JerkProfile::PlanPass(Kinematics start, double target,
+                                                  double end_velocity, JerkLimits l) {
+  constexpr const char* kWhere = "jerk_pass_profile";
+  if (auto s = CheckStart(kWhere, start); !s.ok()) return s;
+  if (auto s = CheckFinite(kWhere, "target", target); !s.ok()) return s;
+  if (!std::isfinite(end_velocity) || end_velocity < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(kWhere, ".end_velocity: ", end_velocity, " must be finite and >= 0"));
+  }
+  if (auto s = CheckLimits(kWhere, l); !s.ok()) return s;
+  if (end_velocity == 0) return Plan(start, target, l);
+  if (std::isinf(l.jerk)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(kWhere, ".limits.jerk: +infinity is not supported with an end velocity"));
+  }
+  const double ve = std::min(end_velocity, l.max_velocity);
+  Builder b(start);
+  bool intermediate_stop = false;
+  std::optional<double> pass_speed;
+  double dir = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    const Kinematics k = b.state();
+    const double rest = target - k.position;
+    const bool at_rest = k.velocity == 0 && k.acceleration == 0;
+    if (at_rest && std::abs(rest) <= Slack(target, k.position)) break;  // nothing to pass
+    dir = rest != 0 ? Sign(rest) : MotionDirection(k);
+    const double moving = MotionDirection(k);
+    const bool behind = moving != 0 && moving != dir && !TurningTowards(k, dir, l);
+    if (!behind) {
+      Builder approach(k);
+      pass_speed = PassTowards(approach, dir, target, ve, l);
+      if (pass_speed) {
+        b.Append(approach);
+        break;
+      }
+    }
+    // §8.2 (L304-306): behind the motion, or the axis cannot slow to ve before the target:
+    // stop (a back to 0), then approach from rest (always possible from rest).
+    Builder stop(k);
+    Ramp(stop, 0, l);
+    b.Append(stop);
+    b.SettleAtRest();
+    intermediate_stop = true;
+  }
+  // At rest on the target there is nothing to pass: the ordinary move that ends there.
+  if (!pass_speed) return Plan(start, target, l);
+  std::vector<Segment> segments = b.Take();
+  double pass_time = 0;
+  for (const Segment& s : segments) pass_time += s.duration;
+  JerkProfile p(FromSegments(start, std::move(segments), /*endless=*/true, target),
+                intermediate_stop);
+  p.passes_ = true;
+  p.pass_time_ = pass_time;
+  p.pass_velocity_ = dir * *pass_speed;
+  p.pass_position_ = target;
+  return p;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -32,13 +32,39 @@ struct JerkLimits {
 class JerkProfile : public Profile {
  public:
   static absl::StatusOr<JerkProfile> Plan(Kinematics start, double target, JerkLimits limits);
+  // Point-to-point S-curve that passes `target` at the End velocity `end_velocity` (a magnitude
+  // >= 0, stober-motion.md §3.2 Target L364-373, I429) instead of stopping there: it arrives
+  // with v = ±end_velocity (the sign is the direction of the final approach, §8.2 [P]) and
+  // a = 0, so a following block continues without an acceleration step. The profile is endless:
+  // after pass_time() it coasts at pass_velocity() until the caller replaces it (the motion core
+  // decides what follows, decision 1161). Rules of decision 1161:
+  //  - end_velocity is clipped to max_velocity;
+  //  - when the target lies behind the motion, or the axis cannot slow to end_velocity before
+  //    it, the profile first stops (intermediate stop, as Plan) and approaches from there;
+  //  - when the distance is too short to reach end_velocity, the target is passed at the
+  //    highest velocity reachable (accelerating all the way, a = 0 at the pass);
+  //  - at rest on the target there is nothing to pass: a standstill profile (passes() false).
+  // end_velocity == 0 is Plan(). Infinite jerk is InvalidArgument (no VA form of a pass).
+  static absl::StatusOr<JerkProfile> PlanPass(Kinematics start, double target, double end_velocity,
+                                              JerkLimits limits);
   // True if the profile passes through an intermediate stop before heading for the target.
   bool intermediate_stop() const { return intermediate_stop_; }
+  // PlanPass: true if the target is passed with v != 0; pass_time() is then the time of the
+  // pass (the end of the segments), pass_velocity() the signed velocity there and
+  // pass_position() the target (At(pass_time()) returns exactly that state).
+  bool passes() const { return passes_; }
+  double pass_time() const { return pass_time_; }
+  double pass_velocity() const { return pass_velocity_; }
+  double pass_position() const { return pass_position_; }
 
  private:
   JerkProfile(Profile profile, bool intermediate_stop)
       : Profile(std::move(profile)), intermediate_stop_(intermediate_stop) {}
   bool intermediate_stop_ = false;
+  bool passes_ = false;
+  double pass_time_ = 0;
+  double pass_velocity_ = 0;
+  double pass_position_ = 0;
 };
 
 // Velocity S-curve (stober-motion.md §8.5 MoveVelocity/MoveSpeed, §8.6 Stop/Halt): from any state

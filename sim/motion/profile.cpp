@@ -130,7 +130,7 @@ Profile Profile::FromSegments(Kinematics start, std::vector<Segment> segments, b
   p.segments_ = std::move(segments);
   p.segments_end_ = t;
   if (endless) {
-    p.end_ = {pos, vel, 0};
+    p.end_ = {target.value_or(pos), vel, 0};
     p.target_ = vel > 0 ? kInf : (vel < 0 ? -kInf : pos);
   } else {
     p.target_ = target.value_or(pos);

@@ -60,7 +60,7 @@ class Profile {
   // Generic constructor for planners: segments are integrated from `start`. A finite profile's
   // target() is `target` if given (planners snap to the exact commanded target so rounding
   // cannot drift), else the integrated end position; an endless one continues at the end
-  // velocity.
+  // velocity, from `target` if given (a pass through a target, JerkProfile::PlanPass).
   static Profile FromSegments(Kinematics start, std::vector<Segment> segments, bool endless,
                               std::optional<double> target = std::nullopt);
 
