@@ -17,8 +17,10 @@
 #include "adapters/linmot/linudp/factory.h"
 #include "adapters/stober/factory.h"
 #include "adapters/trinamic/factory.h"
+#include "server/core/curve_set_service.h"
 #include "server/core/parameter_apply.h"
 #include "server/core/parameter_set_service.h"
+#include "server/grpc/curve_set_service_grpc.h"
 #include "server/grpc/drive_service_grpc.h"
 #include "server/grpc/parameter_set_service_grpc.h"
 #include "server/grpc/worker_pool.h"
@@ -29,6 +31,7 @@
 #include "sim/trinamic/server.h"
 #include "storage/audit_log.h"
 #include "storage/config_repo.h"
+#include "storage/curve_set_repo.h"
 #include "storage/db.h"
 #include "storage/migrations.h"
 #include "storage/parameter_set_repo.h"
@@ -123,6 +126,10 @@ struct Gateway::Impl {
   std::unique_ptr<ParameterApplier> applier;
   std::unique_ptr<ParameterSetServiceCore> parameter_set_core;
   std::unique_ptr<ParameterSetServiceGrpc> parameter_set_service;
+  // Curve sets (issue 6, decision 014): store, core and gRPC service.
+  std::unique_ptr<storage::CurveSetRepo> curve_sets;
+  std::unique_ptr<CurveSetServiceCore> curve_set_core;
+  std::unique_ptr<CurveSetServiceGrpc> curve_set_service;
   std::unique_ptr<grpc::Server> grpc_server;
   int grpc_port = 0;
   std::unique_ptr<rest::RestServer> rest;
@@ -252,6 +259,11 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
       *impl->parameter_sets, *impl->applier, impl->catalogues, impl->drives, impl->audit.get());
   impl->parameter_set_service =
       std::make_unique<ParameterSetServiceGrpc>(*impl->parameter_set_core, *impl->pool);
+  impl->curve_sets = std::make_unique<storage::CurveSetRepo>(*impl->db);
+  impl->curve_set_core =
+      std::make_unique<CurveSetServiceCore>(*impl->curve_sets, impl->drives, impl->audit.get());
+  impl->curve_set_service =
+      std::make_unique<CurveSetServiceGrpc>(*impl->curve_set_core, *impl->pool);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -261,6 +273,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
                            &impl->grpc_port);
   builder.RegisterService(impl->service.get());
   builder.RegisterService(impl->parameter_set_service.get());
+  builder.RegisterService(impl->curve_set_service.get());
   impl->grpc_server = builder.BuildAndStart();
   if (impl->grpc_server == nullptr || impl->grpc_port == 0) {
     return absl::UnavailableError(absl::StrCat("listen.grpc: cannot listen on ", cfg.listen.grpc));
@@ -272,7 +285,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   ro.port = http_addr.second;
   ro.channel = impl->grpc_server->InProcessChannel(grpc::ChannelArguments());
   ro.openapi_json = std::string(kOpenApiJson);
-  ro.more_services = {"drivegw.v1.ParameterSetService"};
+  ro.more_services = {"drivegw.v1.ParameterSetService", "drivegw.v1.CurveSetService"};
   ro.static_dir = options.static_dir;
   auto rest = rest::RestServer::Start(std::move(ro));
   if (!rest.ok()) {
