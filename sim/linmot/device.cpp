@@ -83,6 +83,8 @@ void LinMotDevice::PowerUp() {
   homing_.reset();
   running_.reset();
   frozen_.reset();
+  last_vai_.reset();
+  curve_.reset();
   after_actual_.reset();
   trigger_move_.reset();
   transition_.reset();
@@ -164,6 +166,7 @@ void LinMotDevice::Tick() {
   if (homing_) {
     homing_->Advance(axis_, dts);
   } else {
+    if (curve_) StepCurve(dts);
     axis_.Advance(dts);
   }
   // The slider follows the axis' actual position with the motor's speed capability, unless it
@@ -224,6 +227,12 @@ void LinMotDevice::ResyncAxisToSlider() {
 
 void LinMotDevice::Apply(const SmEffects& fx) {
   const double quick_stop = params_.Get(upid::kQuickStopDeceleration) / kAccPerMmS2;
+  // §7 L1008: a curve is aborted by /Freeze (and cannot be resumed) and by every other
+  // interruption of set-point generation (decision 606).
+  if (fx.quick_stop || fx.stop_setpoints || fx.power_off || fx.power_on || fx.clear_motion ||
+      fx.freeze || fx.resume || fx.cancel_procedure || fx.start_procedure || fx.start_homing) {
+    curve_.reset();
+  }
   if (fx.log_error != 0) error_log_.Add(fx.log_error, operating_ms());
   if (fx.cancel_homing) {
     // D-06: releasing bit 11 (or leaving 9 otherwise) before completion stops the procedure
@@ -440,6 +449,7 @@ void LinMotDevice::StartMove(const VaiMove& m) {
   target = std::clamp<int64_t>(target, std::numeric_limits<int32_t>::min(),
                                std::numeric_limits<int32_t>::max());
   const Limits limits = ToLimits(m.velocity, m.acceleration, m.deceleration);
+  curve_.reset();  // a new motion command aborts a running curve (decision 606)
   // D-42: zero limits hold the position with Motion Active = 1 until the next command.
   absl::Status s = axis_.MoveTo(target / kIncPerMm, limits, m.start, ZeroLimits::kHoldPosition);
   if (!s.ok()) {
@@ -449,6 +459,56 @@ void LinMotDevice::StartMove(const VaiMove& m) {
   }
   target_ = target;
   running_ = Resumable{false, target / kIncPerMm, 1, limits};
+  last_vai_ = running_;
+}
+
+void LinMotDevice::StartCurve(const action::RunCurve& command) {
+  TimeCurvePlan plan =
+      PlanTimeCurve(command, rtc_.FindCurve(command.curve_id), params_, axis_.demand().position);
+  if (!plan.curve) {
+    log::Info("linmot_sim.curve_refused",
+              log::Fields().Add("drive", options_.name).Add("reason", plan.reason));
+    Raise(plan.error);  // 0062h / 0089h (§7 L1007)
+    return;
+  }
+  curve_ = std::move(plan.curve);
+  // Motion Active from this telegram on (§7 L1010): hold the curve's start until the first tick.
+  axis_.Start(sim::motion::Profile::Hold(curve_->At(0)));
+  // §7 L1008: a freeze aborts the curve; its release goes to the last VAI target, or to the
+  // initial position when no VAI command ran (with the predefined VAI limits).
+  running_ = last_vai_;
+  if (!running_) {
+    running_ = Resumable{
+        false, params_.Get(upid::kInitialPosition) / kIncPerMm, 1,
+        ToLimits(params_.Get(upid::kPredefVelocity), params_.Get(upid::kPredefAcceleration),
+                 params_.Get(upid::kPredefDeceleration))};
+  }
+}
+
+void LinMotDevice::StepCurve(double dt_s) {
+  TimeCurve& c = *curve_;
+  using sim::motion::Profile;
+  const double t0 = c.elapsed_s;
+  const double t1 = t0 + dt_s;
+  const double p0 = c.At(t0);
+  if (t1 < c.duration_s - Profile::kEndTolerance) {
+    // Constant velocity over this tick: the demand reaches y(t1) exactly at its end (D-29's
+    // linear interpolation between ticks).
+    axis_.Start(Profile::FromSegments({p0, (c.At(t1) - p0) / dt_s, 0}, {}, /*endless=*/true));
+    c.elapsed_s = t1;
+    return;
+  }
+  // The last piece: end exactly on the curve's end point, then stand (in target, D-10).
+  const double end = c.end_mm();
+  const double rest = c.duration_s - t0;
+  if (rest > Profile::kEndTolerance) {
+    axis_.Start(Profile::FromSegments({p0, (end - p0) / rest, 0}, {{rest, 0, 0}}, false, end));
+  } else {
+    axis_.Start(Profile::FromSegments({end, 0, 0}, {}, false, end));
+  }
+  target_ = ToInc(end);
+  running_.reset();
+  curve_.reset();
 }
 
 void LinMotDevice::FireEvents(double previous_demand_mm) {
@@ -459,7 +519,7 @@ void LinMotDevice::FireEvents(double previous_demand_mm) {
     m.fire = Fire::kNow;
     StartMove(m);
   }
-  if (transition_) {
+  if (transition_ && !curve_) {
     // §4.5: the *demand* position crossing the event position in the given direction.
     const double p = transition_->position / kIncPerMm;
     const double now = axis_.demand().position;
@@ -514,6 +574,7 @@ void LinMotDevice::Execute(const Interpretation& in) {
                  },
                  [&](const action::Stop& a) {
                    ++mc_executed_;
+                   curve_.reset();
                    if (axis_.Stop(a.deceleration / kAccPerMmS2, ZeroLimits::kHoldPosition).ok()) {
                      target_ = ToInc(axis_.target());
                      running_.reset();
@@ -521,6 +582,7 @@ void LinMotDevice::Execute(const Interpretation& in) {
                  },
                  [&](const action::Infinite& a) {
                    ++mc_executed_;
+                   curve_.reset();
                    const Limits l = ToLimits(a.velocity, a.acceleration, a.deceleration);
                    if (axis_
                            .Jog(a.direction * l.max_velocity, l, std::nullopt, StartFrom::kDemand,
@@ -565,6 +627,7 @@ void LinMotDevice::Execute(const Interpretation& in) {
                    // §5.1 009: 13C7h (RAM) := value, 13CAh computed, homed at the actual position
                    // without entering state 9.
                    ++mc_executed_;
+                   curve_.reset();  // the curve's absolute positions lose their frame
                    params_.Set(upid::kHomePosition, a.home_position);
                    params_.Set(upid::kSliderHomePosition, ToInc(slider_mm_));
                    axis_.SetPosition(a.home_position / kIncPerMm);
@@ -572,6 +635,10 @@ void LinMotDevice::Execute(const Interpretation& in) {
                    homed_ = true;
                  },
                  [&](const action::ResetIController&) { ++mc_executed_; },
+                 [&](const action::RunCurve& a) {
+                   ++mc_executed_;
+                   StartCurve(a);
+                 },
                  [&](const action::Reset&) {
                    ++mc_executed_;
                    StartBoot();  // §4.3 rule 4: reboot, remembered count 0 afterwards

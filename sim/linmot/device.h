@@ -18,6 +18,7 @@
 #include "sim/linmot/rtc_channel.h"
 #include "sim/linmot/snapshot.h"
 #include "sim/linmot/state_machine.h"
+#include "sim/linmot/time_curve.h"
 #include "sim/motion/axis.h"
 #include "sim/motion/homing.h"
 
@@ -48,6 +49,9 @@ class LinMotDevice {
   void SetMotorBlocked(bool blocked) { blocked_ = blocked; }
   // Trigger input X4.6 (D-35: trigger out = trigger in for modes 1-4; mode 0 never fires).
   void SetTriggerInput(bool level);
+  // The next curve stored through the curve service gets set point `index` changed (a read-back
+  // mismatch for the master to detect; decision 607).
+  void CorruptNextStoredCurvePoint(size_t index) { rtc_.CorruptNextStoredPoint(index); }
 
   // ---- observation ----
   DeviceSnapshot Snapshot() const;
@@ -66,6 +70,12 @@ class LinMotDevice {
   const Parameters& parameters() const { return params_; }
   Parameters& parameters() { return params_; }
   const ErrorLog& error_log() const { return error_log_; }
+  // The stored curve `curve_id` (info and data bytes as downloaded), or nullptr.
+  const RtcChannel::StoredCurve* stored_curve(uint16_t curve_id) const {
+    return rtc_.FindCurve(curve_id);
+  }
+  // The time curve running now (040h-045h), if any.
+  const std::optional<TimeCurve>& running_curve() const { return curve_; }
   const sim::motion::Axis& axis() const { return axis_; }
   const SimOptions& options() const { return options_; }
 
@@ -82,6 +92,10 @@ class LinMotDevice {
   void ApplyControlWord(uint16_t control_word);
   void Execute(const Interpretation& in);
   void StartMove(const VaiMove& move);
+  // 040h-045h (decision 606): resolve, then run from the next tick; errors 0062h/0089h.
+  void StartCurve(const action::RunCurve& command);
+  // One tick of a running curve: the axis gets the piece of the curve this tick covers.
+  void StepCurve(double dt_s);
   void FireEvents(double previous_demand_mm);
   void Monitor();
   void Raise(uint16_t code);
@@ -125,6 +139,8 @@ class LinMotDevice {
   };
   std::optional<Resumable> running_;  // the motion a freeze would resume (T16)
   std::optional<Resumable> frozen_;
+  std::optional<Resumable> last_vai_;  // the last VAI move started (freeze after a curve, §7)
+  std::optional<TimeCurve> curve_;     // the running time curve
   // Event handler (§4.5): one armed command at a time.
   std::optional<VaiMove> after_actual_;  // D-12 one-shot
   std::optional<VaiMove> trigger_move_;  // re-fires on every edge until 008x

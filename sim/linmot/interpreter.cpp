@@ -287,6 +287,42 @@ Action Interpreter::Decide(const mc::DecodedMotionCommand& d, const Parameters& 
         c.sub_id == 0xE ? 1 : -1, Value(c, 0) * p.Get(upid::kScalePosition16),
         Value(c, 1) * p.Get(upid::kScaleVelocity16), Value(c, 2) * sa, Value(c, 3) * sa};
   }
+  // §5.5 time curves 040h-045h (the trigger forms 046-04F stay unsimulated, decision 606).
+  if (c.master_id == 0x04 && c.sub_id <= 0x5) {
+    using F = action::RunCurve::Form;
+    action::RunCurve r;
+    r.curve_id = static_cast<uint16_t>(Value(c, 0));
+    switch (c.sub_id) {
+      case 0x0:
+        r.form = F::kDefault;
+        break;
+      case 0x1:
+        r.form = F::kDefaultFromDemand;
+        break;
+      case 0x2:
+        r.form = F::kToPos;
+        r.target = static_cast<int32_t>(Value(c, 1));
+        break;
+      case 0x3:
+        r.form = F::kToPosTime;
+        r.target = static_cast<int32_t>(Value(c, 1));
+        r.curve_time = static_cast<uint32_t>(Value(c, 2));
+        break;
+      case 0x4:
+        r.form = F::kOffsetScales;
+        r.offset = static_cast<int32_t>(Value(c, 1));
+        r.time_scale = static_cast<uint16_t>(Value(c, 2));
+        r.amplitude_scale = static_cast<int16_t>(Value(c, 3));
+        break;
+      default:
+        r.form = F::kOffsetTimeAmplitude;
+        r.offset = static_cast<int32_t>(Value(c, 1));
+        r.curve_time = static_cast<uint32_t>(Value(c, 2));
+        r.amplitude_scale = static_cast<int16_t>(Value(c, 3));
+        break;
+    }
+    return r;
+  }
   // Everything else of §5 (curves, streaming, command table, Sin VA, Bestehorn, VAJI, cams,
   // force control, ...): D-28 style, accepted and echoed, logged as not simulated.
   return action::Unsupported{};

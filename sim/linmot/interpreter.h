@@ -84,6 +84,26 @@ struct MasterHoming {
   int32_t home_position = 0;
 };
 struct ResetIController {};
+// §5.5 040h-045h (linmot-mc.md L515-L535, D-29 L1009): a stored time curve. Which start
+// parameters come from the command and which from 14C9h-14CBh or the demand position is the
+// device's job (decision 606); here only the raw command values.
+struct RunCurve {
+  enum class Form {
+    kDefault,             // 040: offset, amplitude, time scale from 14C9h/14CAh/14CBh
+    kDefaultFromDemand,   // 041: offset := demand position, scales from 14CAh/14CBh
+    kToPos,               // 042: offset := demand, amplitude to reach target, time from 14CBh
+    kToPosTime,           // 043: as 042 with curve_time
+    kOffsetScales,        // 044: offset, time_scale, amplitude_scale given
+    kOffsetTimeAmplitude  // 045: offset, curve_time, amplitude_scale given
+  };
+  Form form = Form::kDefault;
+  uint16_t curve_id = 0;
+  int32_t target = 0;           // 042/043, 0.1 um
+  uint32_t curve_time = 0;      // 043/045, 10 us
+  int32_t offset = 0;           // 044/045, 0.1 um
+  uint16_t time_scale = 0;      // 044, 0.01 %
+  int16_t amplitude_scale = 0;  // 044/045, 0.1 %
+};
 struct Reset {};
 // The drive raises this §10 error (0081h unknown / unavailable ID, 0086h wrong state).
 struct Raise {
@@ -93,11 +113,11 @@ struct Raise {
 struct Unsupported {};
 }  // namespace action
 
-using Action =
-    std::variant<action::Nop, action::Ignored, action::Move, action::Stop, action::Infinite,
-                 action::ChangeOnTransition, action::WriteControlWord, action::WriteLiveParameter,
-                 action::SelectControllerSet, action::ClearEvent, action::MasterHoming,
-                 action::ResetIController, action::Reset, action::Raise, action::Unsupported>;
+using Action = std::variant<action::Nop, action::Ignored, action::Move, action::Stop,
+                            action::Infinite, action::ChangeOnTransition, action::WriteControlWord,
+                            action::WriteLiveParameter, action::SelectControllerSet,
+                            action::ClearEvent, action::MasterHoming, action::ResetIController,
+                            action::RunCurve, action::Reset, action::Raise, action::Unsupported>;
 
 struct Interpretation {
   mc::Header header;

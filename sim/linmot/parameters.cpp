@@ -120,6 +120,10 @@ Parameters Parameters::ForOptions(const SimOptions& o) {
       Ranged(upid::kPredefDeceleration, "Predef VAI Deceleration", T::kUInt32, 1'000'000, 0,
              kLimitMax),
       Ranged(upid::kPredefJerk, "Predef VAJI Jerk", T::kUInt32, 1'000'000, 0, 0x5FFF'FFFF),
+      // Curve defaults for 040h/041h/042h (§5.5 L524; units and ranges of 044h, L528).
+      Param(upid::kCurveOffset, "Curve Offset", T::kSInt32, 0),
+      Ranged(upid::kCurveAmplitudeScale, "Curve Amplitude Scale", T::kSInt16, 1000, -20000, 20000),
+      Ranged(upid::kCurveTimeScale, "Curve Time Scale", T::kUInt16, 10000, 0, 20000),
       Ranged(upid::kTriggerMode, "Trigger Mode", T::kUInt16, 0, 0, 4),
       Ranged(upid::kQuickStopDeceleration, "Quick Stop Deceleration", T::kUInt32, 5'000'000, 1,
              kLimitMax),

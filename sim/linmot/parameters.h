@@ -50,6 +50,10 @@ inline constexpr uint16_t kPredefVelocity = 0x14BE;
 inline constexpr uint16_t kPredefAcceleration = 0x14BF;
 inline constexpr uint16_t kPredefDeceleration = 0x14C0;
 inline constexpr uint16_t kPredefJerk = 0x14C1;
+// 040h defaults, in the order §7 L1003 lists them (linmot-mc.md §5.5 L524; decision 606).
+inline constexpr uint16_t kCurveOffset = 0x14C9;          // SInt32, 0.1 um
+inline constexpr uint16_t kCurveAmplitudeScale = 0x14CA;  // SInt16, 0.1 %, -2000 ... 2000 %
+inline constexpr uint16_t kCurveTimeScale = 0x14CB;       // UInt16, 0.01 %, 0 ... 200 %
 inline constexpr uint16_t kTriggerMode = 0x170C;
 inline constexpr uint16_t kQuickStopDeceleration = 0x1721;
 inline constexpr uint16_t kDemandPosition = 0x1B8A;

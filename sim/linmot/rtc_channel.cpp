@@ -319,6 +319,11 @@ RtcReply RtcChannel::CommandTable(const RtcRequest& r, RtcContext&) {
   return Status(linudp::kRtcStatusUpidError, r.word2);
 }
 
+const RtcChannel::StoredCurve* RtcChannel::FindCurve(uint16_t curve_id) const {
+  auto it = curves_.find(curve_id);
+  return it == curves_.end() ? nullptr : &it->second;
+}
+
 RtcReply RtcChannel::Curve(const RtcRequest& r) {
   const auto command = static_cast<RtcCommand>(r.command_id);
   const uint16_t curve = r.word2;
@@ -354,6 +359,12 @@ RtcReply RtcChannel::Curve(const RtcRequest& r) {
       Append(buffer, r, limit);
       if (t.staged.info.size() < t.info_size || t.staged.data.size() < t.data_size) {
         return Status(linudp::kRtcStatusBlockAccepted, curve, r.word3, r.word4);
+      }
+      if (corrupt_next_point_) {
+        // Decision 607: a stored point differs from the sent one (read-back tests).
+        const size_t at = *corrupt_next_point_ * 4;
+        if (at + 4 <= t.staged.data.size()) ++t.staged.data[at];
+        corrupt_next_point_.reset();
       }
       curves_[curve] = std::move(t.staged);
       curve_write_.reset();

@@ -52,6 +52,19 @@ class RtcChannel {
   uint64_t commands() const { return commands_; }
   const linudp::RtcReply& last_reply() const { return last_; }
 
+  // Curve storage (0x40-0x62): the bytes as the master sent them (decision 603 §9); the layout
+  // is adapters/linmot/linudp/curve_info_block.h (decision 706).
+  struct StoredCurve {
+    std::vector<uint8_t> info;
+    std::vector<uint8_t> data;
+  };
+  // nullptr when no curve is stored under `curve_id`.
+  const StoredCurve* FindCurve(uint16_t curve_id) const;
+  // Fault injection (decision 607): the next curve whose transfer completes is stored with set
+  // point `index` changed (its lowest byte incremented); an index beyond the points changes
+  // nothing.
+  void CorruptNextStoredPoint(size_t index) { corrupt_next_point_ = index; }
+
  private:
   RtcResult Execute(const linudp::RtcRequest& request, RtcContext& ctx);
   linudp::RtcReply Parameter(const linudp::RtcRequest& request, RtcContext& ctx);
@@ -81,12 +94,9 @@ class RtcChannel {
   std::vector<uint8_t> ct_write_buffer_;
   size_t ct_read_offset_ = 0;
 
-  // Curve storage (0x40-0x62): curve number -> info block, data block.
-  struct StoredCurve {
-    std::vector<uint8_t> info;
-    std::vector<uint8_t> data;
-  };
+  // Curve storage: curve number -> info block, data block.
   std::map<uint16_t, StoredCurve> curves_;
+  std::optional<size_t> corrupt_next_point_;
   struct CurveTransfer {
     uint16_t curve = 0;
     size_t info_size = 0;

@@ -269,6 +269,16 @@ McCommand VaiDecAccInfinitePositive(uint32_t maximal_velocity, uint32_t accelera
 McCommand VaiDecAccInfiniteNegative(uint32_t maximal_velocity, uint32_t acceleration) {
   return Make(kVaiDecAccInfiniteNegative, {maximal_velocity, acceleration});
 }
+McCommand TimeCurveWithDefaultParameters(uint16_t curve_id) {
+  return Make(kTimeCurveWithDefaultParameters, {curve_id});
+}
+McCommand TimeCurveWithAdjustableOffsetTimeScaleAmplitudeScale(uint16_t curve_id,
+                                                               int32_t curve_offset,
+                                                               uint16_t time_scale,
+                                                               int16_t amplitude_scale) {
+  return Make(kTimeCurveWithAdjustableOffsetTimeScaleAmplitudeScale,
+              {curve_id, curve_offset, time_scale, amplitude_scale});
+}
 
 absl::StatusOr<VaParams> AsVa(const McCommand& cmd) {
   const CommandSpec* spec = FindCommand(cmd.master_id, cmd.sub_id);

@@ -170,7 +170,11 @@ inline constexpr CommandId kPvaStream{0x03, 0x4};
 inline constexpr CommandId kStopStreaming{0x03, 0xF};
 // §5.5 time curves
 inline constexpr CommandId kTimeCurveWithDefaultParameters{0x04, 0x0};
+inline constexpr CommandId kTimeCurveWithDefaultParametersFromActPos{0x04, 0x1};
 inline constexpr CommandId kTimeCurveToPosWithDefaultSpeed{0x04, 0x2};
+inline constexpr CommandId kTimeCurveToPosWithAdjustableTime{0x04, 0x3};
+inline constexpr CommandId kTimeCurveWithAdjustableOffsetTimeScaleAmplitudeScale{0x04, 0x4};
+inline constexpr CommandId kTimeCurveWithAdjustableOffsetTimeAmplitudeScale{0x04, 0x5};
 // §5.8 16-bit VAI (values scaled by 1455h-1458h, D-14)
 inline constexpr CommandId kVai16BitGoToPos{0x09, 0x0};
 inline constexpr CommandId kVai16BitIncrementDemPos{0x09, 0x1};
@@ -269,6 +273,13 @@ McCommand PredefVaiInfinitePositive();
 McCommand PredefVaiInfiniteNegative();
 McCommand VaiDecAccInfinitePositive(uint32_t maximal_velocity, uint32_t acceleration);
 McCommand VaiDecAccInfiniteNegative(uint32_t maximal_velocity, uint32_t acceleration);
+// §5.5 time curves (linmot-mc.md L515-L535): curve ID 1..100; offset 0.1 um; time scale
+// 0.01 %; amplitude scale 0.1 %; curve time 10 us.
+McCommand TimeCurveWithDefaultParameters(uint16_t curve_id);
+McCommand TimeCurveWithAdjustableOffsetTimeScaleAmplitudeScale(uint16_t curve_id,
+                                                               int32_t curve_offset,
+                                                               uint16_t time_scale,
+                                                               int16_t amplitude_scale);
 
 // Typed view of a decoded VA-layout command (010-016, 018, 01A-01D, 070, 07E, 0D0, 0D9, 381,
 // 386, 387, 3C0-3C2: position, velocity, acceleration, deceleration at offsets 2/6/10/14).

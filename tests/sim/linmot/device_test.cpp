@@ -219,8 +219,8 @@ TEST_F(DeviceTest, CommandNotOnProduct_Raises0081_D20) {
 
 TEST_F(DeviceTest, UnsupportedKnownCommand_EchoedNoError_D28) {
   Ready();
-  mc::McCommand curve{0x04, 0x0, {1}};  // time curve: not simulated
-  const linudp::Reply r = Mc(curve);
+  mc::McCommand stream{0x03, 0x0, {0}};  // P stream: not simulated (time curves are, 606)
+  const linudp::Reply r = Mc(stream);
   EXPECT_EQ(mc::StateVar::FromRaw(*r.state_var).count_echo(), mc_count_);
   EXPECT_EQ(Main(), 8);
 }
