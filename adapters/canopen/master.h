@@ -17,6 +17,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <shared_mutex>
 #include <span>
 #include <string>
@@ -133,6 +134,11 @@ struct MasterCounters {
   uint64_t sdo_unexpected = 0;       // SDO responses while no transfer of the node was running
   uint64_t sdo_queued_max = 0;       // most transfers waiting behind one node's active one
   uint64_t rpdo_sent = 0;
+  // Synchronous RPDOs (decision 1118): frames held for a later SYNC cycle because the same RPDO
+  // had already gone out in the current one, and held frames discarded (SYNC stopped, send
+  // failed).
+  uint64_t rpdo_deferred = 0;
+  uint64_t rpdo_dropped = 0;
   uint64_t tpdo_received = 0;
   uint64_t sync_sent = 0;
   uint64_t sync_send_errors = 0;
@@ -207,7 +213,14 @@ class CanopenMaster {
   absl::Status ConfigurePdo(uint8_t node, PdoKind kind, uint16_t number, const PdoCommParams& comm,
                             std::span<const PdoMappingEntry> mapping, TimePoint deadline);
   // One RPDO frame (payload 0..8 bytes) on the configured or predefined COB-ID. Non-blocking.
+  // An RPDO configured synchronous (transmission type 0..240: the node acts on it at the next
+  // SYNC, CiA 301 §7.2.2.1) while this master produces SYNC leaves at most once per SYNC cycle:
+  // a second frame of it in the same cycle waits, in order with the node's later RPDOs, and
+  // leaves right after the next SYNC, so no value is overwritten in the node's buffer before a
+  // SYNC applied it (decision 1118). More than kMaxHeldSyncRpdos waiting frames of one node are
+  // ResourceExhausted. Without this master's SYNC (none, or another producer) it leaves at once.
   absl::Status SendRpdo(uint8_t node, uint16_t number, std::span<const uint8_t> payload);
+  static constexpr size_t kMaxHeldSyncRpdos = 32;
 
   // --- SYNC producer on its own steady-clock timer (decision 1116). counter_overflow: 0 = no
   // counter byte, 2..240 = counter 1..overflow (1019h). Restarts when already running.
@@ -308,6 +321,23 @@ class CanopenMaster {
 
   // SYNC producer (master_sync.cpp).
   void RunSync(Duration period, uint8_t overflow);
+  // Synchronous RPDO pacing (master_sync_rpdo.cpp, decision 1118), all under rpdo_mu_.
+  struct HeldRpdo {
+    uint16_t number = 0;
+    transport::CanFrame frame;
+  };
+  struct SyncRpdoNode {
+    std::deque<HeldRpdo> held;  // waiting for a later SYNC cycle, in send order
+    std::set<uint16_t> sent;    // RPDO numbers sent since the last SYNC
+  };
+  // A frame of a synchronous RPDO while SYNC runs: sent now or held (see SendRpdo).
+  absl::Status SendSyncRpdoLocked(uint8_t node, uint16_t number, const transport::CanFrame& frame,
+                                  const std::string& what, bool& deferred);
+  // Right after a SYNC left: a new cycle; sends held frames, at most one per RPDO and node.
+  // Returns {sent, dropped}.
+  std::pair<uint64_t, uint64_t> FlushSyncRpdosLocked();
+  // SYNC stopped: held frames are dropped (returned count), pacing ends.
+  uint64_t EndSyncRpdosLocked();
 
   // Any thread, with or without mu_ (lock order: mu_, then channel_mu_).
   absl::Status SendFrame(const transport::CanFrame& frame);
@@ -334,6 +364,7 @@ class CanopenMaster {
   std::map<ObserverId, Observer> observers_;
   ObserverId next_observer_ = 1;
   std::map<std::pair<uint8_t, uint16_t>, uint16_t> rpdo_cob_;     // (node, n) → COB-ID, 0 invalid
+  std::set<std::pair<uint8_t, uint16_t>> rpdo_synchronous_;       // configured type 0..240
   std::map<std::pair<uint8_t, uint16_t>, uint16_t> tpdo_cob_;     // configured; 0 = invalid
   std::map<uint16_t, std::pair<uint8_t, uint16_t>> tpdo_by_cob_;  // configured and valid
   std::vector<Notification> pending_;  // filled under mu_, delivered by Dispatch
@@ -354,6 +385,11 @@ class CanopenMaster {
   std::mutex sync_dispatch_mu_;  // held by the SYNC thread while it calls listeners
   std::atomic<std::thread::id> sync_thread_id_{};
   std::mutex sync_control_mu_;  // serialises StartSync / StopSync
+  // Synchronous RPDO pacing. Taken before channel_mu_ (SendFrame), never together with mu_. The
+  // SYNC thread holds it while it sends a SYNC, so "sent in this cycle" is exact.
+  std::mutex rpdo_mu_;
+  bool sync_pacing_ = false;  // this master's SYNC producer runs
+  std::map<uint8_t, SyncRpdoNode> sync_rpdo_;
 
   std::mutex stop_mu_;
   std::thread thread_;

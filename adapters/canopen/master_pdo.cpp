@@ -1,6 +1,6 @@
 // CanopenMaster PDO runtime: configuration through the CiA 301 §7.2.2.4 SDO sequence
 // (MappingWrites, decision 1107), the COB-IDs it leaves for TPDO routing and RPDO sending
-// (decision 1113).
+// (decision 1113), and which RPDOs are synchronous (paced per SYNC, decision 1118).
 #include <string>
 #include <utility>
 
@@ -46,6 +46,12 @@ absl::Status CanopenMaster::ConfigurePdo(uint8_t node, PdoKind kind, uint16_t nu
     if (comm.valid) tpdo_by_cob_[cob] = key;
   } else {
     rpdo_cob_[key] = comm.valid ? cob : 0;
+    // CiA 301 §7.5.2.35 sub 2: an RPDO of type 0..240 is actuated at the next SYNC.
+    if (comm.valid && comm.transmission_type <= kTransmissionSyncEveryMax) {
+      rpdo_synchronous_.insert(key);
+    } else {
+      rpdo_synchronous_.erase(key);
+    }
   }
   log::Debug("canopen_pdo_configured", log::Fields()
                                            .Add("bus", bus_name_)
@@ -69,8 +75,10 @@ absl::Status CanopenMaster::SendRpdo(uint8_t node, uint16_t number,
         absl::StrCat(what, ": ", payload.size(), " bytes exceed ", transport::kCanMaxDlc));
   }
   uint16_t cob = 0;
+  bool synchronous = false;
   {
     std::lock_guard lock(mu_);
+    synchronous = rpdo_synchronous_.contains({node, number});
     if (auto it = rpdo_cob_.find({node, number}); it != rpdo_cob_.end()) {
       if (it->second == 0) {
         return absl::FailedPreconditionError(absl::StrCat(what, ": configured invalid"));
@@ -88,11 +96,25 @@ absl::Status CanopenMaster::SendRpdo(uint8_t node, uint16_t number,
     }
     cob = *def;
   }
-  if (absl::Status s = SendFrame(transport::MakeCanFrame(cob, payload)); !s.ok()) {
-    return absl::UnavailableError(absl::StrCat(what, ": ", s.message()));
+  const transport::CanFrame frame = transport::MakeCanFrame(cob, payload);
+  bool deferred = false;
+  absl::Status sent = absl::OkStatus();
+  bool paced = false;
+  if (synchronous) {
+    std::lock_guard pacing(rpdo_mu_);
+    if (sync_pacing_) {
+      paced = true;
+      sent = SendSyncRpdoLocked(node, number, frame, what, deferred);
+    }
   }
+  if (!paced) {
+    if (absl::Status s = SendFrame(frame); !s.ok()) {
+      sent = absl::UnavailableError(absl::StrCat(what, ": ", s.message()));
+    }
+  }
+  if (!sent.ok()) return sent;
   std::lock_guard lock(mu_);
-  ++counters_.rpdo_sent;
+  ++(deferred ? counters_.rpdo_deferred : counters_.rpdo_sent);
   return absl::OkStatus();
 }
 

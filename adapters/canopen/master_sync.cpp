@@ -1,5 +1,6 @@
 // CanopenMaster SYNC producer: its own thread on absolute steady-clock deadlines (no drift),
-// the counter of 1019h, jitter counters and the "SYNC sent" listeners (decision 1116).
+// the counter of 1019h, jitter counters, the "SYNC sent" listeners (decision 1116) and the cycle
+// boundary of synchronous RPDO pacing (decision 1118).
 // Source: CiA 301 v4.2.0 §7.2.5 (SYNC), §7.5.2.6 (1006h communication cycle period),
 // §7.5.2.22 (1019h synchronous counter overflow value).
 #include <algorithm>
@@ -46,6 +47,11 @@ absl::Status CanopenMaster::StartSync(Duration period, uint8_t counter_overflow)
     }
     counters_.sync_last_period_error = Duration::zero();
     counters_.sync_max_period_error = Duration::zero();
+  }
+  {
+    // From here SendRpdo paces synchronous RPDOs on this producer's cycles (decision 1118).
+    std::lock_guard pacing(rpdo_mu_);
+    sync_pacing_ = true;
   }
   std::lock_guard lock(sync_mu_);
   sync_stop_ = false;
@@ -127,11 +133,21 @@ void CanopenMaster::RunSync(Duration period, uint8_t overflow) {
       sync.counter = counter;
     }
     absl::StatusOr<transport::CanFrame> frame = EncodeSync(sync);
-    const bool sent = frame.ok() && SendFrame(*frame).ok();
+    bool sent = false;
+    std::pair<uint64_t, uint64_t> flushed{0, 0};
+    {
+      // One SYNC cycle ends and the next begins atomically for SendRpdo; the held synchronous
+      // RPDOs leave right after the SYNC, so the node acts on them at the next one.
+      std::lock_guard pacing(rpdo_mu_);
+      sent = frame.ok() && SendFrame(*frame).ok();
+      if (sent) flushed = FlushSyncRpdosLocked();
+    }
     const SteadyTime at = std::chrono::steady_clock::now();
     {
       std::lock_guard counters_lock(mu_);
       counters_.sync_overruns += skipped;
+      counters_.rpdo_sent += flushed.first;
+      counters_.rpdo_dropped += flushed.second;
       if (sent) {
         ++counters_.sync_sent;
         if (previous) {
@@ -163,6 +179,16 @@ void CanopenMaster::RunSync(Duration period, uint8_t overflow) {
     }
     next += step;
     lock.lock();
+  }
+  lock.unlock();
+  uint64_t dropped = 0;
+  {
+    std::lock_guard pacing(rpdo_mu_);
+    dropped = EndSyncRpdosLocked();
+  }
+  {
+    std::lock_guard counters_lock(mu_);
+    counters_.rpdo_dropped += dropped;
   }
   sync_thread_id_.store(std::thread::id());
 }
