@@ -96,6 +96,7 @@ absl::Status StoberDrive::DoActivate() {
 }
 
 void StoberDrive::DoDeactivate() {
+  StopCurveRunner();  // before the stream is detached: the runner owns a stream
   {
     std::lock_guard lock(mu_);
     stop_ = true;

@@ -70,6 +70,8 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   absl::StatusOr<CommandInfo> Move(const MotionCommand& cmd) override;
   absl::StatusOr<CommandInfo> AcknowledgeFault() override;
   absl::StatusOr<std::unique_ptr<CyclicStream>> StartCyclic(CyclicMode mode) override;
+  // drive_curve.cpp: the curve as MC_CyclicPosition set points at the SYNC period (decision 1208).
+  absl::StatusOr<CommandInfo> RunCurve(const Curve& curve, const CurveRunOptions& options) override;
 
   // ParameterRef.id = CANopen index << 8 | sub; bound objects in their user value (rounded to
   // an integer), others as the raw integer of the SDO size. rom: InvalidArgument (decision 1201).
@@ -87,6 +89,7 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
  private:
   class Stream;
   friend class Stream;
+  class CurveRunner;  // drive_curve.cpp
 
   // The one open motion-core command handle (§2.3: one status set per axis).
   struct Tracker {
@@ -157,6 +160,10 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   absl::Status WriteBound(const char* param, double value);
   // drive_cyclic.cpp: RPDO4 ↔ the cyclic set values (decision 1205).
   absl::Status MapCyclicRpdo(bool cyclic);
+  // StartCyclic with the handle's kind and a check run under the drive lock just before the edge.
+  absl::StatusOr<std::unique_ptr<CyclicStream>> OpenCyclic(
+      CyclicMode mode, const std::string& kind, const std::function<absl::Status()>& precondition);
+  void StopCurveRunner();  // drive_curve.cpp: Deactivate ends the runner thread
   absl::StatusOr<CommandInfo> CloseStream(Stream* stream);
   void DetachStream();  // Deactivate: the open stream stops sending, SYNC stops if ours
 
@@ -197,6 +204,8 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   bool sync_started_ = false;  // this drive started the bus's SYNC producer
   PdoLayout cyclic_layout_ = CyclicLayout();
   StoberDriveCounters counters_;
+  std::mutex curve_mu_;                 // guards curve_ (never held with mu_ or op_mu_)
+  std::shared_ptr<CurveRunner> curve_;  // the latest RunCurve's streaming thread
 };
 
 }  // namespace drivegw::stober

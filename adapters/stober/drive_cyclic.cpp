@@ -139,8 +139,13 @@ absl::Status StoberDrive::MapCyclicRpdo(bool cyclic) {
 }
 
 absl::StatusOr<std::unique_ptr<Drive::CyclicStream>> StoberDrive::StartCyclic(CyclicMode mode) {
-  const char* kind = mode == CyclicMode::kPosition ? "CyclicPosition" : "CyclicSpeed";
-  DGW_RETURN_IF_ERROR(RequireActive(kind));
+  return OpenCyclic(mode, mode == CyclicMode::kPosition ? "CyclicPosition" : "CyclicSpeed",
+                    nullptr);
+}
+
+absl::StatusOr<std::unique_ptr<Drive::CyclicStream>> StoberDrive::OpenCyclic(
+    CyclicMode mode, const std::string& kind, const std::function<absl::Status()>& precondition) {
+  DGW_RETURN_IF_ERROR(RequireActive(kind.c_str()));
   std::lock_guard op(op_mu_);
   double start_position = 0;
   std::shared_ptr<co::CanopenMaster> m;
@@ -150,6 +155,7 @@ absl::StatusOr<std::unique_ptr<Drive::CyclicStream>> StoberDrive::StartCyclic(Cy
     if (stream_ != nullptr) {
       return absl::FailedPreconditionError(Prefix(kind) + "a cyclic stream is already open");
     }
+    if (precondition) DGW_RETURN_IF_ERROR(precondition());
     start_position = actual_.position;
     m = master_;
   }
@@ -205,7 +211,8 @@ void StoberDrive::DetachStream() {
 }
 
 // Close: the cyclic handle ends DONE (an open one; a cancelled one keeps its ERROR), the axis
-// stops with MC_Stop at the axis's maximum deceleration, RPDO4 gets its default mapping back.
+// stops with MC_Stop at the axis's maximum deceleration unless a later motion command took over,
+// RPDO4 gets its default mapping back.
 absl::StatusOr<CommandInfo> StoberDrive::CloseStream(Stream* stream) {
   const uint64_t id = stream->command().id;
   bool stop_sync = false;
@@ -232,7 +239,11 @@ absl::StatusOr<CommandInfo> StoberDrive::CloseStream(Stream* stream) {
       stop.deceleration = config().axis.max_acceleration_mm_s2;
       stop.jerk = 10 * stop.deceleration;
       const bool enabled = RequireEnabledLocked("Stop").ok();
-      if (!enabled) stop.command = mc::kDoNothing;
+      // A later motion command replaced the cyclic one (it superseded the stream's handle): the
+      // axis runs that command now, and a Stop would end it (decision 1208).
+      const bool still_cyclic =
+          image_.command == mc::kCyclicPosition || image_.command == mc::kCyclicSpeed;
+      if (!enabled || !still_cyclic) stop.command = mc::kDoNothing;
     }
     if (stop.command == mc::kStop) stopped = StartMc(stop).status();
     if (absl::Status s = MapCyclicRpdo(false); !s.ok() && stopped.ok()) stopped = s;

@@ -1,0 +1,242 @@
+// StoberDrive::RunCurve against the simulated STOBER axis (sim/stober AxisServer) on the UDP
+// multicast CAN bus, steady clock: the curve streamed as MC_CyclicPosition set points at the SYNC
+// period ends DONE at its end point with progress rising to 1 in the status; refused away from
+// the start; a Move supersedes it (ABORTED) and keeps running; a drive fault ends it ERROR
+// (decisions 013, 1208). Waits are bounded by the drive's own WaitForStatus, never sleeps.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <numbers>
+#include <random>
+#include <vector>
+
+#include "adapters/stober/drive.h"
+#include "adapters/stober/factory.h"
+#include "adapters/stober/object_map.h"
+#include "sim/stober/server.h"
+#include "tests/support/wait_status.h"
+
+namespace drivegw::stober {
+namespace {
+
+using namespace std::chrono_literals;
+using ::testing::HasSubstr;
+namespace ss = drivegw::sim::stober;
+
+constexpr char kGroup[] = "239.74.163.98";
+constexpr uint8_t kNode = 11;
+
+uint16_t RandomPort() {
+  static std::mt19937 rng(std::random_device{}() ^ static_cast<unsigned>(::getpid()));
+  return static_cast<uint16_t>(20000 + rng() % 20001);
+}
+
+uint32_t Id(const char* param) {
+  const CanOpenAddress a = *ToCanOpen(P(param));
+  return static_cast<uint32_t>(a.index) << 8 | a.sub_index;
+}
+
+// A smooth stroke from `from` to `to` in `duration_s`: p = from + (to − from)(1 − cos(πt/T))/2,
+// sampled every 10 ms; it starts and ends at rest.
+Curve Stroke(double from, double to, double duration_s) {
+  PositionTimeCurve pt;
+  pt.time_step_s = 0.01;
+  const int n = static_cast<int>(std::lround(duration_s / pt.time_step_s));
+  for (int i = 0; i <= n; ++i) {
+    const double x = static_cast<double>(i) / n;
+    pt.positions_mm.push_back(from + (to - from) * (1 - std::cos(std::numbers::pi * x)) / 2);
+  }
+  Curve c;
+  c.name = "stroke";
+  c.shape = pt;
+  return c;
+}
+
+class StoberCurveTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    bus_.kind = CanBusConfig::Kind::kUdpMulticast;
+    bus_.group = kGroup;
+    bus_.port = RandomPort();
+    ss::AxisServerOptions o;
+    o.node_id = kNode;
+    o.can = bus_;
+    auto server = ss::AxisServer::Start(o, SteadyClock::Instance());
+    ASSERT_TRUE(server.ok()) << server.status();
+    server_ = std::move(*server);
+    config_.name = "st-curve";
+    config_.family = kFamilyName;
+    config_.can = bus_;
+    config_.node_id = kNode;
+    config_.axis.min_mm = -200;
+    config_.axis.max_mm = 200;
+    config_.axis.max_velocity_mm_s = 1000;
+    config_.axis.max_acceleration_mm_s2 = 10000;
+    config_.canopen.heartbeat = 50ms;
+    config_.canopen.heartbeat_timeout = 200ms;
+    config_.canopen.sdo_timeout = 300ms;
+    auto drive = CreateStoberDrive(config_, SteadyClock::Instance());
+    ASSERT_TRUE(drive.ok()) << drive.status();
+    drive_.reset(static_cast<StoberDrive*>(drive->release()));
+    ASSERT_TRUE(drive_->Activate().ok());
+    const DriveStatus s =
+        WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
+    ASSERT_NE(s.state, DriveState::kOffline) << s.native.text;
+    auto en = drive_->Enable();
+    ASSERT_TRUE(en.ok()) << en.status();
+    server_->WithAxis([](ss::MotionCore& c) { c.SetReferenced(true); });
+    // Cycles without a set point are extrapolated for I423 (L1344): 100 ms tolerates scheduling
+    // jitter of the SYNC thread on a loaded machine (as the cyclic stream test does).
+    ASSERT_TRUE(drive_->WriteParameter(ParameterRef{Id("I423"), false}, 100).ok());
+  }
+  void TearDown() override {
+    if (drive_) drive_->Deactivate();
+    if (server_) server_->Stop();
+  }
+
+  DriveStatus WaitUntil(const std::function<bool(const DriveStatus&)>& pred,
+                        std::chrono::steady_clock::duration timeout = 10s) {
+    return test_support::WaitStatus(*drive_, pred, timeout);
+  }
+  CommandInfo WaitFinal(uint64_t id) { return test_support::WaitCommandFinal(*drive_, id, 10s); }
+  double SimPosition() {
+    double p = 0;
+    server_->WithAxis([&](ss::MotionCore& c) { p = *c.Read(P("I80")); });
+    return p;
+  }
+  // Every progress value of command `id` the status stream showed until it ended.
+  std::vector<double> ProgressUntilFinal(uint64_t id) {
+    std::vector<double> seen;
+    const auto deadline = std::chrono::steady_clock::now() + 15s;
+    DriveStatus s = drive_->GetStatus();
+    while (std::chrono::steady_clock::now() < deadline) {
+      if (s.last_command && s.last_command->id == id && s.last_command->progress) {
+        seen.push_back(*s.last_command->progress);
+      }
+      if (IsFinal(drive_->GetCommand(id)->state) && s.last_command && s.last_command->id == id &&
+          IsFinal(s.last_command->state)) {
+        break;
+      }
+      if (IsFinal(drive_->GetCommand(id)->state) && (!s.last_command || s.last_command->id != id)) {
+        break;  // a newer command is the newest one now
+      }
+      s = drive_->WaitForStatus(s.sequence, deadline);
+    }
+    return seen;
+  }
+
+  CanBusConfig bus_;
+  DriveConfig config_;
+  std::unique_ptr<ss::AxisServer> server_;
+  std::unique_ptr<StoberDrive> drive_;
+};
+
+TEST_F(StoberCurveTest, RunsToTheEndPointDone_ProgressRisesToOneInTheStatus) {
+  const Curve c = Stroke(0, 20, 0.6);
+  auto r = drive_->RunCurve(c, CurveRunOptions{});
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->kind, "RunCurve");
+  EXPECT_EQ(r->state, CommandState::kActive);
+  ASSERT_TRUE(r->progress.has_value());
+  const std::vector<double> progress = ProgressUntilFinal(r->id);
+  const CommandInfo done = WaitFinal(r->id);
+  ASSERT_EQ(done.state, CommandState::kDone) << done.message;
+  EXPECT_THAT(done.message, HasSubstr("end point 20 mm reached"));
+  ASSERT_TRUE(done.progress.has_value());
+  EXPECT_DOUBLE_EQ(*done.progress, 1.0);
+  ASSERT_GE(progress.size(), 3u);
+  for (size_t i = 1; i < progress.size(); ++i) {
+    EXPECT_GE(progress[i], progress[i - 1]) << "snapshot " << i;
+  }
+  EXPECT_DOUBLE_EQ(progress.back(), 1.0);
+  // Some snapshots showed the run under way, not only its ends.
+  EXPECT_TRUE(
+      std::any_of(progress.begin(), progress.end(), [](double p) { return p > 0.05 && p < 0.95; }));
+  EXPECT_NEAR(SimPosition(), 20, CurveRunOptions{}.start_tolerance_mm);
+  // The cyclic command was stopped after DONE and RPDO4 has its default mapping: the axis stands
+  // ENABLED and an ordinary move works.
+  const DriveStatus s = WaitUntil([](const DriveStatus& s) {
+    return s.state == DriveState::kEnabled && std::abs(s.position_mm - 20) < 1e-3;
+  });
+  EXPECT_EQ(s.state, DriveState::kEnabled) << s.native.text;
+  auto back = drive_->Move(MoveAbsolute{0, 500, 5000, 5000});
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(WaitFinal(back->id).state, CommandState::kDone);
+  // The same curve again, from its start: a second run works (the first let go of its stream).
+  auto again = drive_->RunCurve(Stroke(0, 5, 0.2), CurveRunOptions{});
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(WaitFinal(again->id).state, CommandState::kDone);
+  EXPECT_NEAR(SimPosition(), 5, CurveRunOptions{}.start_tolerance_mm);
+}
+
+TEST_F(StoberCurveTest, RefusedAwayFromTheStart_MessageNamesBothPositions) {
+  const auto before = drive_->GetStatus().last_command;
+  auto r = drive_->RunCurve(Stroke(5, 20, 0.3), CurveRunOptions{});
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(std::string(r.status().message()), HasSubstr("axis at 0 mm"));
+  EXPECT_THAT(std::string(r.status().message()), HasSubstr("starts at 5 mm"));
+  EXPECT_THAT(std::string(r.status().message()), HasSubstr("'stroke'"));
+  // Refused before the edge: no handle, no stream left open (a cyclic stream still opens).
+  const auto after = drive_->GetStatus().last_command;
+  EXPECT_EQ(after.has_value() ? after->kind : "", before.has_value() ? before->kind : "");
+  // Within the tolerance it starts.
+  CurveRunOptions wide;
+  wide.start_tolerance_mm = 5.5;
+  auto ok = drive_->RunCurve(Stroke(5, 20, 0.3), wide);
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  EXPECT_EQ(WaitFinal(ok->id).state, CommandState::kDone);
+  EXPECT_NEAR(SimPosition(), 20, wide.start_tolerance_mm);
+}
+
+TEST_F(StoberCurveTest, MoveDuringTheRunAbortsIt_AndTheMoveCompletes) {
+  auto r = drive_->RunCurve(Stroke(0, 100, 3.0), CurveRunOptions{});
+  ASSERT_TRUE(r.ok()) << r.status();
+  const DriveStatus under_way = WaitUntil([&](const DriveStatus&) {
+    const auto info = drive_->GetCommand(r->id);
+    return info->progress && *info->progress > 0.1;
+  });
+  ASSERT_GT(*drive_->GetCommand(r->id)->progress, 0.1);
+  EXPECT_EQ(under_way.state, DriveState::kMoving);
+  // A second curve is refused while the first runs (cyclic start from motion, L1799).
+  EXPECT_EQ(drive_->RunCurve(Stroke(0, 5, 0.2), CurveRunOptions{}).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+  auto m = drive_->Move(MoveAbsolute{-10, 500, 5000, 5000});
+  ASSERT_TRUE(m.ok()) << m.status();
+  const CommandInfo aborted = WaitFinal(r->id);
+  EXPECT_EQ(aborted.state, CommandState::kAborted);
+  EXPECT_THAT(aborted.message, HasSubstr("superseded by MoveAbsolute"));
+  // Closing the curve's stream must not stop the Move that took over.
+  const CommandInfo moved = WaitFinal(m->id);
+  EXPECT_EQ(moved.state, CommandState::kDone) << moved.message;
+  EXPECT_NEAR(SimPosition(), -10, 1e-6);
+  const double progress_at_abort = *drive_->GetCommand(r->id)->progress;
+  EXPECT_LT(progress_at_abort, 1.0);
+  // The stream was closed: a new curve from here runs.
+  auto next = drive_->RunCurve(Stroke(-10, 0, 0.2), CurveRunOptions{});
+  ASSERT_TRUE(next.ok()) << next.status();
+  EXPECT_EQ(WaitFinal(next->id).state, CommandState::kDone);
+}
+
+TEST_F(StoberCurveTest, DriveFaultDuringTheRunEndsItError) {
+  auto r = drive_->RunCurve(Stroke(0, 100, 3.0), CurveRunOptions{});
+  ASSERT_TRUE(r.ok()) << r.status();
+  WaitUntil([&](const DriveStatus&) {
+    const auto info = drive_->GetCommand(r->id);
+    return info->progress && *info->progress > 0.05;
+  });
+  server_->InjectFollowingError();
+  const CommandInfo failed = WaitFinal(r->id);
+  EXPECT_EQ(failed.state, CommandState::kError);
+  EXPECT_LT(*failed.progress, 1.0);
+  const DriveStatus s =
+      WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kFault; });
+  EXPECT_EQ(s.state, DriveState::kFault);
+}
+
+}  // namespace
+}  // namespace drivegw::stober
