@@ -176,8 +176,8 @@ void MotionCore::Step() {
   if (edge) {
     const auto command = static_cast<Command>(static_cast<int>(Get("I401")));
     // MC_DoNothing: no motion, no status, motion ID unchanged (L135); a running command
-    // continues (G-12, decision 1148).
-    if (command != Command::kDoNothing) StartCommand(command);
+    // continues (G-12, decision 1148). Others start at once or are buffered (I409, 1162).
+    if (command != Command::kDoNothing) OnExecuteEdge(command);
   }
   UpdateContinuousInputs();
   Integrate();
@@ -197,8 +197,11 @@ void MotionCore::StepPower() {
   }
   const bool enabled = power_.operation_enabled();
   if (was_enabled_ && !enabled) {
-    // Enable-off (G-18, decision 1146): cancel the running command without error, I89 = 0.
+    // Enable-off (G-18, decision 1146): cancel the running command without error, I89 = 0;
+    // a buffered block is dropped with it (decision 1162).
     command_active_ = false;
+    buffered_.reset();
+    passing_ = false;
     plc_ = PlcState::kDisabled;
     if (power_.stopping() || !options_.enable_off_stops_immediately) {
       QuickStop();
@@ -268,10 +271,19 @@ void MotionCore::Integrate() {
         set_.velocity = 0;
         set_.acceleration = 0;
         break;
-      case Drive::kProfile:
+      case Drive::kProfile: {
         t_ += step;
-        set_ = profile_.At(t_);
+        // §2.5: a pass at the End velocity, or the end of a block with a buffered successor,
+        // inside this cycle (decisions 1161, 1162).
+        const double end = passing_ ? pass_time_ : ramp_end_;
+        const bool block_end = passing_ || (buffered_ && !stop_held_by_override_);
+        if (block_end && t_ >= end - motion::Profile::kEndTolerance) {
+          EndOfBlock(end);
+        } else {
+          set_ = profile_.At(t_);
+        }
         break;
+      }
       case Drive::kCyclicTakeover: {
         // I113 = cyclical takeover: the set velocity jumps, no ramps (L859).
         const double v =
@@ -492,7 +504,9 @@ void MotionCore::Publish() {
   Set("I180", in_window_ ? 1 : 0);
   Set("I199", standstill_ ? 1 : 0);
   Set("I89", static_cast<int>(plc_));
-  Set("I83", command_active_ && Moving() ? 1 : 0);
+  // G-08 (decision 1163): 0 no block moving, 1 a block running, 2 running with a buffered
+  // subsequent block.
+  Set("I83", buffered_ ? 2 : (command_active_ && Moving() ? 1 : 0));
   Set("I190", velocity_limited_ ? 1 : 0);
   Set("I191", dynamics_limited_ ? 1 : 0);
   Set("I192", position_limited_ ? 1 : 0);

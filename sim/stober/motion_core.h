@@ -206,6 +206,29 @@ class MotionCore {
   void Publish();
   static double cmd_sign(double v);
 
+  // Buffered (subsequent) motion blocks, End velocity (motion_core_blocks.cpp; §2.5, G-09,
+  // decisions 1161-1163).
+  struct BlockInputs {  // the inputs a block latches at its edge (§2.2 L113, L183)
+    Command command = Command::kDoNothing;
+    double position = 0;      // I403
+    double velocity = 0;      // I404
+    double acceleration = 0;  // I405
+    double deceleration = 0;  // I406
+    double jerk = 0;          // I407
+    double end_velocity = 0;  // I429
+    double direction = 0;     // I411
+    double brake_at_end = 0;  // I410
+    double motion_id = 0;     // I400
+  };
+  BlockInputs ReadInputs(Command command) const;
+  void WriteInputs(const BlockInputs& in);
+  void OnExecuteEdge(Command command);
+  bool AcceptsSuccessor() const;
+  void BufferBlock(Command command);
+  void EndOfBlock(double end_time);
+  void TakeOverBuffered(double end_time);
+  void PassWithoutSuccessor(double end_time);
+
   // Starting and stopping (motion_core_commands.cpp).
   std::optional<std::pair<Cause, std::string>> CheckDenial(Command command);
   void StartPositioning(Command command);
@@ -325,6 +348,12 @@ class MotionCore {
   std::optional<double> last_set_position_;
   bool window_reached_ = false;
   bool window_left_ = false;
+
+  // Buffering and End velocity (decisions 1161-1163).
+  std::optional<BlockInputs> buffered_;  // the subsequent block, one deep (I409 = 1)
+  double end_velocity_ = 0;              // I429 of the running positioning block
+  bool passing_ = false;                 // its profile passes the target (JerkProfile::PlanPass)
+  double pass_time_ = 0;                 // profile time of the pass
 
   Homing homing_;
   Interpolator interp_;

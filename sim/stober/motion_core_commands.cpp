@@ -26,6 +26,10 @@ double PositiveModulo(double x, double length) {
 }  // namespace
 
 void MotionCore::StartCommand(Command command) {
+  // An aborting start cancels the running block and a buffered one (§2.5, decision 1162).
+  buffered_.reset();
+  passing_ = false;
+  end_velocity_ = 0;
   command_ = command;
   command_started_ = true;
   command_active_ = true;
@@ -237,6 +241,8 @@ std::optional<std::pair<Cause, std::string>> MotionCore::ComputeTarget(Command c
 }
 
 void MotionCore::Deny(Cause cause, std::string text) {
+  buffered_.reset();  // a denied or cancelled chain ends here (decision 1163)
+  passing_ = false;
   error_ = true;
   cause_ = cause;
   error_text_ = std::move(text);
@@ -308,6 +314,7 @@ void MotionCore::StartPositioning(Command command) {
   cmd_deceleration_ = Get("I406");
   cmd_jerk_ = Get("I407");
   brake_at_end_ = Get("I410") != 0;
+  end_velocity_ = Get("I429");  // latched with the other inputs (L183)
   // Only 1-3 produce a valid set position (L745, G-16).
   last_set_position_ = target_;
   window_reached_ = window_left_ = false;
@@ -317,6 +324,7 @@ void MotionCore::StartPositioning(Command command) {
 }
 
 void MotionCore::PlanPositioning() {
+  passing_ = false;
   const double factor = OverrideFactor();
   applied_override_ = factor;
   const double vmax_abs = Get("I10");
@@ -336,6 +344,19 @@ void MotionCore::PlanPositioning() {
     return;
   }
   stop_held_by_override_ = false;
+  if (end_velocity_ > 0) {
+    // End velocity ≠ 0: the target is passed at it (L368), scaled by the override like every
+    // velocity of the block and clipped to its velocity limit (decision 1161).
+    absl::StatusOr<motion::JerkProfile> pass = motion::JerkProfile::PlanPass(
+        set_, target_, std::min(end_velocity_ * factor, limits.max_velocity), limits);
+    const bool passes = pass.ok() && pass->passes();
+    const double at = passes ? pass->pass_time() : 0;
+    if (SetProfile(AsProfile(std::move(pass))) && passes) {
+      passing_ = true;
+      pass_time_ = at;
+    }
+    return;
+  }
   SetProfile(AsProfile(motion::JerkProfile::Plan(set_, target_, limits)));
 }
 

@@ -79,7 +79,8 @@ TEST(StoberParams, WriteRefusalsNameParameterAndLimit) {
   s = core.Write(P("J40"), 1);
   EXPECT_EQ(s.code(), absl::StatusCode::kNotFound);
   EXPECT_EQ(core.Read(P("J40")).status().code(), absl::StatusCode::kNotFound);
-  EXPECT_EQ(core.Write(P("I429"), 10).code(), absl::StatusCode::kOutOfRange);  // G-09
+  EXPECT_EQ(core.Write(P("I429"), -10).code(), absl::StatusCode::kOutOfRange);  // a magnitude
+  EXPECT_EQ(core.Write(P("I409"), 2).code(), absl::StatusCode::kOutOfRange);    // 0 / 1 (1162)
   EXPECT_TRUE(core.Write(P("I10"), 1500).ok());
   EXPECT_EQ(*core.Read(P("I10")), 1500);
 }
