@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include "absl/strings/str_cat.h"
+#include "adapters/canopen/pdo.h"
 #include "adapters/stober/factory.h"
 #include "adapters/stober/object_map.h"
 #include "server/config/can_config.h"
@@ -53,17 +54,41 @@ YAML::Node NodeOf(const std::optional<YAML::Node>& parent, std::string_view key)
   return *parent;
 }
 
+// CiA 301 §7.5.2.35 sub 2 for an RPDO: 0..240 synchronous (actuated at the next SYNC), 254/255
+// event-driven (on reception); 241..251 are reserved and 252/253 (RTR) exist for TPDOs only
+// (decision 1119).
+void ParseRpdoTransmissionType(const Section& c, CanOpenConfig& out) {
+  int64_t type = out.rpdo_transmission_type;
+  if (!c.Int("rpdo_transmission_type", 0, 255, type)) return;
+  const bool synchronous = type <= canopen::kTransmissionSyncEveryMax;
+  const bool event =
+      type == canopen::kTransmissionEventManufacturer || type == canopen::kTransmissionEventProfile;
+  if (!synchronous && !event) {
+    c.errors().Add(c.Child("rpdo_transmission_type"),
+                   absl::StrCat(type,
+                                type >= canopen::kTransmissionSyncRtr ? " is for TPDOs only (RTR)"
+                                                                      : " is reserved",
+                                "; an RPDO is synchronous (0..240, applied at the next SYNC) or "
+                                "event-driven (254, 255)"),
+                   *c.Get("rpdo_transmission_type"));
+    return;
+  }
+  out.rpdo_transmission_type = static_cast<uint8_t>(type);
+}
+
 void ParseCanOpen(const Section& s, CanOpenConfig& out) {
   const auto node = s.Get("canopen");
   if (node) {
     const Section c(*node, s.Child("canopen"),
-                    {"heartbeat_ms", "heartbeat_timeout_ms", "sync_period_ms", "sdo_timeout_ms"},
+                    {"heartbeat_ms", "heartbeat_timeout_ms", "sync_period_ms", "sdo_timeout_ms",
+                     "rpdo_transmission_type"},
                     s.errors());
     if (node->IsNull() || node->IsMap()) {
       c.Millis("heartbeat_ms", kMaxHeartbeatMs, out.heartbeat);
       c.Millis("heartbeat_timeout_ms", kMaxHeartbeatMs, out.heartbeat_timeout);
       c.Millis("sync_period_ms", kMaxSyncPeriodMs, out.sync_period);
       c.Millis("sdo_timeout_ms", kMaxSdoTimeoutMs, out.sdo_timeout);
+      ParseRpdoTransmissionType(c, out);
     }
   }
   // CiA 301 §7.2.8.3.2: the consumer must wait longer than the producer's period, or every

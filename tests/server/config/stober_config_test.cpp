@@ -75,6 +75,7 @@ TEST(StoberConfigTest, MinimalAxis_NodeIdBusAndCanOpenDefaults) {
   EXPECT_EQ(d.canopen.heartbeat_timeout, milliseconds(350));
   EXPECT_EQ(d.canopen.sync_period, milliseconds(2));
   EXPECT_EQ(d.canopen.sdo_timeout, milliseconds(1000));
+  EXPECT_EQ(d.canopen.rpdo_transmission_type, 255);  // event-driven (decision 1119)
   EXPECT_EQ(d.axis.min_mm, -100);
 }
 
@@ -222,6 +223,36 @@ TEST(StoberConfigTest, CanOpen_EveryKeyBounded) {
   EXPECT_TRUE(ParseConfig(with("{heartbeat_ms: 65534, heartbeat_timeout_ms: 65535, "
                                "sync_period_ms: 1000, sdo_timeout_ms: 1}"))
                   .ok());
+}
+
+TEST(StoberConfigTest, RpdoTransmissionType_SynchronousOrEventDriven) {
+  auto with = [](std::string_view canopen) {
+    return With("node_id: 3", absl::StrCat("node_id: 3\n    canopen: ", std::string(canopen)));
+  };
+  // CiA 301 §7.5.2.35: 0..240 synchronous (applied at the next SYNC), 254/255 event-driven.
+  for (int type : {0, 1, 240, 254, 255}) {
+    auto cfg = ParseConfig(with(absl::StrCat("{rpdo_transmission_type: ", type, "}")));
+    ASSERT_TRUE(cfg.ok()) << type << ": " << cfg.status();
+    EXPECT_EQ(cfg->drives[0].canopen.rpdo_transmission_type, type);
+  }
+  EXPECT_THAT(Message(with("{rpdo_transmission_type: 241}")),
+              HasSubstr("drives[0].canopen.rpdo_transmission_type: 241 is reserved; an RPDO is "
+                        "synchronous (0..240, applied at the next SYNC) or event-driven (254, "
+                        "255)"));
+  EXPECT_THAT(Message(with("{rpdo_transmission_type: 252}")),
+              HasSubstr("drives[0].canopen.rpdo_transmission_type: 252 is for TPDOs only (RTR)"));
+  EXPECT_THAT(Message(with("{rpdo_transmission_type: 256}")),
+              HasSubstr("drives[0].canopen.rpdo_transmission_type: 256 exceeds 255"));
+  EXPECT_THAT(Message(with("{rpdo_transmission_type: sync}")),
+              HasSubstr("drives[0].canopen.rpdo_transmission_type: 'sync' is not an integer"));
+  // Drives of one bus may differ: each node's RPDOs are its own; SYNC runs for the bus.
+  auto two =
+      ParseConfig(PlusDrive("s2", "stober",
+                            "    can: {udp: {group: 239.74.163.2, port: 43114}}\n    node_id: 4\n"
+                            "    canopen: {rpdo_transmission_type: 1}\n"));
+  ASSERT_TRUE(two.ok()) << two.status();
+  EXPECT_EQ(two->drives[0].canopen.rpdo_transmission_type, 255);
+  EXPECT_EQ(two->drives[1].canopen.rpdo_transmission_type, 1);
 }
 
 TEST(StoberConfigTest, HeartbeatTimeout_MustExceedHeartbeat) {
