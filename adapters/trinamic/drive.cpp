@@ -126,6 +126,7 @@ absl::Status TrinamicDrive::DoActivate() {
 }
 
 void TrinamicDrive::DoDeactivate() {
+  StopCurveRunner();  // it sends words through the Pack: gone before the Pack is released
   std::shared_ptr<Pack> pack;
   {
     std::lock_guard lock(mu_);
@@ -247,6 +248,14 @@ void TrinamicDrive::EvaluateLocked(Updates& out) {
         finish(CommandState::kAborted, absl::StrCat("rotation ended (", ActionText(s.action), ")"));
       }
       return;
+    case TrackKind::kCurve:
+      // Acceptance of the first leg only: the motor stands between legs, the runner decides the
+      // end (decision 1232).
+      if (!t.accepted && (s.action != kActionInactive || s.posact == t.target)) {
+        t.accepted = true;
+        out.push_back({t.id, {CommandState::kActive, ""}});
+      }
+      return;
     case TrackKind::kHome:
       if (IsReferenceAction(s.action)) {
         t.homing_seen = true;
@@ -363,7 +372,8 @@ DriveStatus TrinamicDrive::BuildStatusLocked() const {
   } else if (IsReferenceAction(action)) {
     s.state = DriveState::kHoming;
   } else if (action != kActionInactive ||
-             (tracker_ && tracker_->track == TrackKind::kCoordinated)) {
+             (tracker_ && (tracker_->track == TrackKind::kCoordinated ||
+                           tracker_->track == TrackKind::kCurve))) {
     s.state = DriveState::kMoving;
   } else {
     s.state = enabled_ ? DriveState::kEnabled : DriveState::kDisabled;
@@ -379,7 +389,8 @@ DriveStatus TrinamicDrive::BuildStatusLocked() const {
     s.velocity_mm_s = v.ok() ? *v : 0;
     s.motion_active = action != kActionInactive;
     const bool tracks_target = tracker_ && (tracker_->track == TrackKind::kMove ||
-                                            tracker_->track == TrackKind::kCoordinated);
+                                            tracker_->track == TrackKind::kCoordinated ||
+                                            tracker_->track == TrackKind::kCurve);
     s.demand_position_mm = tracks_target ? tracker_->target / mpu_ : s.position_mm;
     s.in_target =
         action == kActionInactive && (!tracks_target || sample_->posact == tracker_->target);

@@ -61,6 +61,8 @@ class TrinamicDrive final : public DriveBase, private PackListener {
   absl::StatusOr<CommandInfo> AcknowledgeFault() override;
   absl::StatusOr<std::vector<CommandInfo>> MoveCoordinated(const CoordinatedMove& move,
                                                            std::span<Drive* const> group) override;
+  // drive_curve.cpp: the curve as timed position-mode legs (decisions 1231-1233).
+  absl::StatusOr<CommandInfo> RunCurve(const Curve& curve, const CurveRunOptions& options) override;
 
   // ParameterRef.id = opcode << 8 | P (parameters.h). Read = the shadow (no read-back, G-24).
   absl::StatusOr<int64_t> ReadParameter(const ParameterRef& ref) override;
@@ -83,7 +85,8 @@ class TrinamicDrive final : public DriveBase, private PackListener {
   void DoDeactivate() override;
 
  private:
-  enum class TrackKind { kMove, kStop, kRotation, kHome, kCoordinated };
+  // kCurve: a RunCurve; samples confirm its first leg, the curve runner ends it (drive_curve.cpp).
+  enum class TrackKind { kMove, kStop, kRotation, kHome, kCoordinated, kCurve };
   // One open motion/homing handle and how it completes.
   struct Tracker {
     uint64_t id = 0;
@@ -156,6 +159,8 @@ class TrinamicDrive final : public DriveBase, private PackListener {
                                   const std::function<bool(const AxisSample&)>& reached,
                                   const std::function<absl::Status()>& timed_out);
   absl::Status StopAndWait(const std::string& what);
+  class CurveRunner;       // drive_curve.cpp
+  void StopCurveRunner();  // Deactivate ends the runner thread
 
   const Clock& clock_;
   const std::string name_;
@@ -180,6 +185,8 @@ class TrinamicDrive final : public DriveBase, private PackListener {
   bool reset_warning_ = false;
   std::optional<Tracker> tracker_;
   TrinamicDriveCounters counters_;
+  std::mutex curve_mu_;                 // guards curve_ (never held with mu_ or op_mu_)
+  std::shared_ptr<CurveRunner> curve_;  // the latest RunCurve's leg scheduler
 };
 
 }  // namespace drivegw::trinamic
