@@ -166,10 +166,12 @@ absl::StatusOr<LinMotParametricCurve> FromWireCurve(const WireCurve& w) {
   }
   LinMotParametricCurve c;
   c.curve_id = i.curve_id;
-  c.x_length_s = static_cast<double>(i.x_length) * L::kTimeUnitS;
+  // Divisions by the exact step counts per unit: the nearest double to the decimal value, so a
+  // curve given as 0.5 s / 10 mm reads back equal.
+  c.x_length_s = static_cast<double>(i.x_length) / 1e5;
   c.y_unit = L::YUnit::kPosition0p1um;
   c.points = w.points;
-  c.offset_mm = static_cast<double>(i.default_offset) * L::kPointUnitMm;
+  c.offset_mm = static_cast<double>(i.default_offset) / 1e4;
   c.amplitude_scale_pct = static_cast<double>(i.default_amplitude_scale) / 10.0;
   c.time_scale_pct = static_cast<double>(i.default_time_scale) / 100.0;
   return c;

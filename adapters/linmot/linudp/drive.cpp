@@ -6,14 +6,14 @@
 #include <limits>
 #include <utility>
 
-#include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
-#include "adapters/linmot/mc/control_word.h"
 #include "adapters/core/units.h"
 #include "adapters/linmot/common/session_peer.h"
+#include "adapters/linmot/linudp/rtc_error.h"
+#include "adapters/linmot/mc/control_word.h"
 #include "adapters/linmot/mc/error_codes.h"
 #include "adapters/linmot/mc/warn_word.h"
 
@@ -43,9 +43,6 @@ Duration RtcTimeout(uint8_t command_id, Duration normal) {
   if (command_id == 0x40 || command_id == 0x80) return std::chrono::seconds(120);
   return normal;
 }
-
-// The RTC status riding on an error (STYLE.md §6 "Errors": the drive's own code as payload).
-constexpr char kRtcStatusPayloadUrl[] = "type.drivegw.dev/linmot.linudp.RtcStatus";
 
 double PositionFromWire(int64_t v) { return static_cast<double>(v) / units::kPositionPerMm; }
 
@@ -190,6 +187,8 @@ absl::Status LinMotUdpDrive::DoActivate() {
     motion_.reset();
     homing_.reset();
     published_.reset();
+    verified_curves_.clear();
+    ++curve_epoch_;
   }
   PeerOptions options;
   options.name = name_;
@@ -345,6 +344,11 @@ void LinMotUdpDrive::OnLinkChange(LinkState state) noexcept {
     DisarmMcBlockLocked(motion_->count);
     motion_.reset();
   }
+  if (state == LinkState::kOffline) {
+    // A drive that went silent may have rebooted: its curves are no longer known (decision 707).
+    verified_curves_.clear();
+    ++curve_epoch_;
+  }
   if (state != LinkState::kOnline) {
     history_.clear();
     velocity_mm_s_ = demand_velocity_mm_s_ = 0;
@@ -377,6 +381,7 @@ void LinMotUdpDrive::EvaluateMotionLocked(TimePoint now) {
       m.accepted = true;
       accepted_id_ = m.id;
       UpdateCommand(m.id, CommandState::kActive);
+      if (m.curve) m.curve->started = now;
       if (m.planned) {
         // D-11: planned duration x 1.5 + 500 ms.
         m.completion_deadline = now + *m.planned + *m.planned / 2 + std::chrono::milliseconds(500);
@@ -403,7 +408,10 @@ void LinMotUdpDrive::EvaluateMotionLocked(TimePoint now) {
       return end(CommandState::kAborted, absl::StrCat("superseded on the drive (count echo ",
                                                       sv.count_echo(), ", sent ", m.count, ")"));
     }
-    if (!sv.motion_active() && (!m.needs_in_target || sv.in_target_position())) {
+    const bool finished = !sv.motion_active() && (!m.needs_in_target || sv.in_target_position());
+    if (m.curve) {
+      if (auto e = EvaluateCurveLocked(m, now, finished)) return end(e->first, e->second);
+    } else if (finished) {
       return end(CommandState::kDone, "");
     }
     if (m.completion_deadline && now >= *m.completion_deadline) {
@@ -910,7 +918,8 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::Move(const MotionCommand& cmd) {
 absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
                                                       const mc::McCommand& cmd,
                                                       bool needs_in_target,
-                                                      std::optional<Duration> planned) {
+                                                      std::optional<Duration> planned,
+                                                      std::optional<CurveTrack> curve) {
   std::unique_lock lock(mu_);
   if (!OnlineLocked()) {
     return absl::UnavailableError(absl::StrCat("drive '", name_, "': ", kind, ": no reply from ",
@@ -941,6 +950,7 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
   m.needs_in_target = needs_in_target;
   m.accept_deadline = now + config().timeouts.accept;
   m.planned = planned;
+  m.curve = curve;
   motion_ = m;
   log::Debug("motion_command",
              log::Fields()
@@ -1069,31 +1079,6 @@ absl::StatusOr<RtcReply> LinMotUdpDrive::RtcRestart(Duration timeout) {
   return *sample_.rtc;
 }
 
-namespace {
-
-absl::Status RtcError(const std::string& drive, const std::string& what, uint8_t status) {
-  // the raw code goes upward. Codes that reject the request itself -> InvalidArgument;
-  // codes about the drive's state or the parameter's use -> FailedPrecondition.
-  const std::string message = absl::StrFormat("drive '%s': %s: %s (RTC status 0x%02X)", drive, what,
-                                              RtcStatusText(status), status);
-  absl::Status s;
-  switch (status) {
-    case kRtcStatusUpidError:
-    case kRtcStatusParameterTypeError:
-    case kRtcStatusRangeError:
-    case kRtcStatusOddAddress:
-    case kRtcStatusSizeError:
-      s = absl::InvalidArgumentError(message);
-      break;
-    default:
-      s = absl::FailedPreconditionError(message);
-  }
-  s.SetPayload(kRtcStatusPayloadUrl, absl::Cord(absl::StrFormat("%02X", status)));
-  return s;
-}
-
-}  // namespace
-
 absl::StatusOr<int64_t> LinMotUdpDrive::ReadParameter(const ParameterRef& ref) {
   DGW_RETURN_IF_ERROR(RequireActive("ReadParameter"));
   if (ref.id > 0xFFFF) {
@@ -1107,7 +1092,7 @@ absl::StatusOr<int64_t> LinMotUdpDrive::ReadParameter(const ParameterRef& ref) {
   DGW_ASSIGN_OR_RETURN(const RtcReply r,
                        RtcTransact(static_cast<uint8_t>(command), static_cast<uint16_t>(ref.id), 0,
                                    0, config().timeouts.request, what));
-  if (IsRtcError(r.status)) return RtcError(name_, what, r.status);
+  if (IsRtcError(r.status)) return RtcStatusError(name_, what, r.status);
   // linmot-linudp.md §3.5: words 3-4 are one little-endian Int32.
   const uint32_t raw = static_cast<uint32_t>(r.word3) | (static_cast<uint32_t>(r.word4) << 16);
   return static_cast<int64_t>(static_cast<int32_t>(raw));
@@ -1136,7 +1121,7 @@ absl::Status LinMotUdpDrive::WriteParameter(const ParameterRef& ref, int64_t val
       RtcTransact(static_cast<uint8_t>(command), static_cast<uint16_t>(ref.id),
                   static_cast<uint16_t>(raw & 0xFFFF), static_cast<uint16_t>(raw >> 16),
                   config().timeouts.request, what));
-  if (IsRtcError(r.status)) return RtcError(name_, what, r.status);
+  if (IsRtcError(r.status)) return RtcStatusError(name_, what, r.status);
   return absl::OkStatus();
 }
 
@@ -1144,6 +1129,15 @@ absl::StatusOr<NativeReply> LinMotUdpDrive::SendNative(const NativeRequest& req)
   DGW_RETURN_IF_ERROR(RequireActive("SendNative"));
   if (const auto* rtc = std::get_if<LinMotRtcRequest>(&req)) {
     const std::string what = absl::StrFormat("RTC command 0x%02X", rtc->command_id);
+    if (rtc->command_id == static_cast<uint8_t>(RtcCommand::kRestartDrive) ||
+        rtc->command_id == static_cast<uint8_t>(RtcCommand::kDeleteAllCurves) ||
+        (rtc->command_id >= static_cast<uint8_t>(RtcCommand::kStartAddingCurve) &&
+         rtc->command_id <= static_cast<uint8_t>(RtcCommand::kModifyCurveData))) {
+      // The caller changes curves behind the curve service's back (decision 707).
+      std::lock_guard lock(mu_);
+      verified_curves_.clear();
+      ++curve_epoch_;
+    }
     const Duration timeout = RtcTimeout(rtc->command_id, config().timeouts.request);
     DGW_ASSIGN_OR_RETURN(
         const RtcReply r,

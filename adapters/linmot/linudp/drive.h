@@ -7,6 +7,8 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -17,6 +19,7 @@
 #include "adapters/core/clock.h"
 #include "adapters/core/drive_base.h"
 #include "adapters/linmot/linudp/codec.h"
+#include "adapters/linmot/linudp/curve_info_block.h"
 #include "adapters/linmot/linudp/session.h"
 #include "adapters/linmot/mc/motion_command.h"
 #include "adapters/linmot/mc/state_var.h"
@@ -34,6 +37,8 @@ DriveState MapLinMotState(bool online, mc::StateVar state_var, mc::StatusWord st
 Duration PlannedVaiDuration(double distance_mm, double v0_mm_s, double vmax_mm_s, double acc_mm_s2,
                             double dec_mm_s2);
 
+class CurveService;
+
 class LinMotUdpDrive final : public DriveBase, private SessionPeer {
  public:
   // `config.linudp` must be set (CreateLinMotUdpDrive checks it); `clock` must advance in real
@@ -48,6 +53,13 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   absl::StatusOr<CommandInfo> Home() override;
   absl::StatusOr<CommandInfo> Move(const MotionCommand& cmd) override;
   absl::StatusOr<CommandInfo> AcknowledgeFault() override;
+
+  // Curves (issue 6; docs/decisions/707-linudp-curve-download-run.md, drive_curves.cpp): the
+  // curve service with read-back (curve_service.h), and RunCurve as 044h with the curve's
+  // offset/time/amplitude scale, downloaded first unless this session verified that very curve.
+  absl::Status DownloadCurve(const LinMotParametricCurve& curve) override;
+  absl::StatusOr<LinMotParametricCurve> UploadCurve(int curve_id) override;
+  absl::StatusOr<CommandInfo> RunCurve(const Curve& curve, const CurveRunOptions& options) override;
 
   absl::StatusOr<int64_t> ReadParameter(const ParameterRef& ref) override;
   absl::Status WriteParameter(const ParameterRef& ref, int64_t value) override;
@@ -85,6 +97,14 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
     int32_t actual;
     int32_t demand;
   };
+  // What a RunCurve handle needs besides the motion (decision 707).
+  struct CurveTrack {
+    double end_mm = 0;        // D-29 end point of the run
+    double tolerance_mm = 0;  // DONE needs |actual - end| <= this
+    Duration duration{};      // curve time: progress = elapsed / duration
+    std::optional<TimePoint> started;
+    double reported = -1;  // progress last published
+  };
   // A motion command between Move/SendNative and its final state (linmot-mc.md §4.4).
   struct MotionTracker {
     uint64_t id = 0;
@@ -95,6 +115,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
     TimePoint accept_deadline{};
     std::optional<Duration> planned;  // nullopt: no completion time-out (native commands)
     std::optional<TimePoint> completion_deadline;
+    std::optional<CurveTrack> curve;  // RunCurve only
   };
   enum class HomingPhase { kStarting, kRunning, kReleasing };
   struct HomingTracker {
@@ -144,7 +165,17 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
 
   // Move/SendNative common path: checks state 8, creates the handle, runs the count handshake.
   absl::StatusOr<CommandInfo> RunMotion(const std::string& kind, const mc::McCommand& cmd,
-                                        bool needs_in_target, std::optional<Duration> planned);
+                                        bool needs_in_target, std::optional<Duration> planned,
+                                        std::optional<CurveTrack> curve = std::nullopt);
+  // RunCurve's progress and end-point check on a reply (drive_curves.cpp). Returns the final
+  // state and message when the curve run ends now, else nullopt.
+  std::optional<std::pair<CommandState, std::string>> EvaluateCurveLocked(MotionTracker& m,
+                                                                          TimePoint now,
+                                                                          bool finished);
+  // Runs `fn` with the curve service while holding the RTC channel (one sequence at a time).
+  absl::Status WithCurveService(const std::function<absl::Status(CurveService&)>& fn);
+  // Downloads and verifies `wire` unless this session verified exactly it; fills the cache.
+  absl::Status EnsureCurve(const WireCurve& wire, bool force);
   absl::StatusOr<mc::McCommand> BuildMotion(const MotionCommand& cmd, bool& needs_in_target,
                                             Duration& planned);
   // One RTC transaction; returns the final reply (status may be >= 0xC0).
@@ -179,7 +210,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   // Outbound state: what every telegram carries (linmot-linudp.md §3).
   std::optional<uint16_t> control_word_;  // unset: no control word block (linudp §6.8)
   uint64_t cw_generation_ = 0;
-  bool urgent_ = false;  // outbound state changed since the last telegram (decision 006)
+  bool urgent_ = false;        // outbound state changed since the last telegram (decision 006)
   uint64_t cw_in_flight_ = 0;  // generation carried by the outstanding telegram
   uint64_t cw_answered_ = 0;   // generation carried by the telegram the newest reply answered
   std::optional<mc::McBlock> mc_block_;
@@ -191,6 +222,11 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   std::optional<MotionTracker> motion_;
   uint64_t accepted_id_ = 0;  // newest motion command the drive accepted (count echo seen)
   std::optional<HomingTracker> homing_;
+
+  // Curves this session downloaded and read back (decision 707); cleared when the link drops
+  // (a reboot is silent) and by native RTC commands that change curves.
+  std::map<uint16_t, WireCurve> verified_curves_;
+  uint64_t curve_epoch_ = 0;
 
   std::optional<DriveStatus> published_;
   TimePoint published_at_{};
