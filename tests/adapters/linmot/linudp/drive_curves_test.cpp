@@ -13,6 +13,7 @@
 #include "adapters/linmot/linudp/curve_info_block.h"
 #include "adapters/linmot/linudp/drive.h"
 #include "adapters/linmot/linudp/factory.h"
+#include "adapters/linmot/mc/error_codes.h"
 #include "sim/linmot/device.h"
 #include "sim/linmot/server.h"
 #include "tests/support/wait_status.h"
@@ -48,8 +49,10 @@ Curve Stroke(double start_mm = 10) {
 
 class LinMotUdpDriveCurvesTest : public ::testing::Test {
  protected:
+  virtual SimOptions Options() { return SimOptions{}; }
+
   void SetUp() override {
-    SimOptions o;
+    SimOptions o = Options();
     o.bind = transport::Endpoint{transport::Endpoint::kLoopback, 0};
     o.master_port = 0;
     o.hw_test_time = 50ms;
@@ -231,6 +234,41 @@ TEST_F(LinMotUdpDriveCurvesTest, MoveDuringACurve_AbortsIt) {
   EXPECT_EQ(aborted.state, CommandState::kAborted) << aborted.message;
   EXPECT_EQ(WaitFinal(move->id).state, CommandState::kDone);
   EXPECT_NEAR(drive_->GetStatus().position_mm, 12.0, 0.011);
+}
+
+TEST_F(LinMotUdpDriveCurvesTest, DriveFaultDuringACurve_ErrorWithTheCodeText) {
+  EnableOrDie();
+  Curve slow = Stroke();
+  std::get<PositionTimeCurve>(slow.shape).time_step_s = 0.5;  // 2 s
+  auto run = drive_->RunCurve(slow, CurveRunOptions{});
+  ASSERT_TRUE(run.ok()) << run.status();
+  WaitUntil([&](const DriveStatus& s) {
+    return s.last_command && s.last_command->progress && *s.last_command->progress > 0.1;
+  });
+  ASSERT_TRUE(server_->RaiseError(mc::kPosLagAlwaysTooBig).ok());
+  const CommandInfo failed = WaitFinal(run->id);
+  EXPECT_EQ(failed.state, CommandState::kError);
+  EXPECT_THAT(failed.message, HasSubstr("drive fault"));
+  EXPECT_THAT(failed.message, HasSubstr("0x000B"));
+}
+
+// linudp 5.1.3 / A-09: every RTC command first answers "busy" for two telegrams.
+class LinMotUdpDriveCurvesBusyTest : public LinMotUdpDriveCurvesTest {
+ protected:
+  SimOptions Options() override {
+    SimOptions o;
+    o.rtc_busy_telegrams = 2;
+    return o;
+  }
+};
+
+TEST_F(LinMotUdpDriveCurvesBusyTest, BusyReplies_AreWaitedOut) {
+  const LinMotParametricCurve curve = Ramp(11);
+  absl::Status s = drive_->DownloadCurve(curve);
+  ASSERT_TRUE(s.ok()) << s;
+  auto back = drive_->UploadCurve(11);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(*back, curve);
 }
 
 }  // namespace
