@@ -99,6 +99,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   };
   // What a RunCurve handle needs besides the motion (decision 707).
   struct CurveTrack {
+    uint16_t curve_id = 0;
     double end_mm = 0;        // D-29 end point of the run
     double tolerance_mm = 0;  // DONE needs |actual - end| <= this
     Duration duration{};      // curve time: progress = elapsed / duration

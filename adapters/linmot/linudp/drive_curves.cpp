@@ -136,6 +136,17 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunCurve(const Curve& curve,
     }
     return absl::OkStatus();
   };
+  {
+    // Decision 707: a curve is not rewritten under a run that still uses its ID.
+    std::lock_guard lock(mu_);
+    auto cached = verified_curves_.find(wire->info.curve_id);
+    const bool same = cached != verified_curves_.end() && cached->second == *wire;
+    if (!same && motion_ && motion_->curve && motion_->curve->curve_id == wire->info.curve_id) {
+      return absl::FailedPreconditionError(
+          absl::StrCat(where, ": curve ", wire->info.curve_id, " is running (command ", motion_->id,
+                       "); stop it or run this curve under another ID"));
+    }
+  }
   DGW_RETURN_IF_ERROR(check_start());
   if (absl::Status s = EnsureCurve(*wire, /*force=*/false); !s.ok()) return Prefixed(where, s);
 
@@ -148,6 +159,7 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunCurve(const Curve& curve,
       info.curve_id, info.default_offset, static_cast<uint16_t>(info.default_time_scale),
       static_cast<int16_t>(info.default_amplitude_scale));
   CurveTrack track;
+  track.curve_id = info.curve_id;
   track.end_mm = end_mm;
   track.tolerance_mm = options.start_tolerance_mm;
   track.duration = duration;

@@ -236,6 +236,18 @@ TEST_F(LinMotUdpDriveCurvesTest, MoveDuringACurve_AbortsIt) {
   EXPECT_NEAR(drive_->GetStatus().position_mm, 12.0, 0.011);
 }
 
+TEST_F(LinMotUdpDriveCurvesTest, AnotherCurveUnderTheRunningId_Refused) {
+  EnableOrDie();
+  Curve slow = Stroke();
+  std::get<PositionTimeCurve>(slow.shape).time_step_s = 0.5;  // 2 s under the scratch ID 100
+  auto run = drive_->RunCurve(slow, CurveRunOptions{});
+  ASSERT_TRUE(run.ok()) << run.status();
+  auto other = drive_->RunCurve(Stroke(50), CurveRunOptions{});
+  EXPECT_EQ(other.status().code(), absl::StatusCode::kFailedPrecondition) << other.status();
+  EXPECT_THAT(other.status().message(), HasSubstr("curve 100 is running"));
+  EXPECT_EQ(drive_->GetCommand(run->id)->state, CommandState::kActive);
+}
+
 TEST_F(LinMotUdpDriveCurvesTest, DriveFaultDuringACurve_ErrorWithTheCodeText) {
   EnableOrDie();
   Curve slow = Stroke();
