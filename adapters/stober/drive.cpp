@@ -57,6 +57,18 @@ TimePoint StoberDrive::Deadline() const { return clock_.Now() + config().timeout
 
 Duration StoberDrive::CycleTime() const { return cycle_; }
 
+bool StoberDrive::SyncRpdos() const {
+  return config().canopen.rpdo_transmission_type <= co::kTransmissionSyncEveryMax;
+}
+
+co::PdoCommParams StoberDrive::RpdoComm(const PdoLayout& layout) const {
+  co::PdoCommParams comm = layout.comm;
+  if (layout.kind == co::PdoKind::kRpdo) {
+    comm.transmission_type = config().canopen.rpdo_transmission_type;
+  }
+  return comm;
+}
+
 StoberDriveCounters StoberDrive::counters() const {
   std::lock_guard lock(mu_);
   return counters_;
@@ -187,9 +199,13 @@ absl::Status StoberDrive::Configure() {
            "1029h error behaviour"));
   for (const PdoLayout& layout : DefaultPdoLayout()) {
     const co::PdoMapping mapping = layout.Mapping();
-    DGW_RETURN_IF_ERROR(
-        step(m->ConfigurePdo(node_, layout.kind, layout.number, layout.comm, mapping, deadline),
-             layout.kind == co::PdoKind::kRpdo ? "RPDO" : "TPDO"));
+    DGW_RETURN_IF_ERROR(step(
+        m->ConfigurePdo(node_, layout.kind, layout.number, RpdoComm(layout), mapping, deadline),
+        layout.kind == co::PdoKind::kRpdo ? "RPDO" : "TPDO"));
+  }
+  // Synchronous RPDOs act only on SYNC: the bus's producer runs from now on (decision 1119).
+  if (SyncRpdos() && !m->sync_running()) {
+    DGW_RETURN_IF_ERROR(step(m->StartSync(c.sync_period), "SYNC producer"));
   }
   auto read = [&](CanOpenAddress a) -> absl::StatusOr<double> {
     auto b = FindBinding(a);
@@ -247,6 +263,7 @@ absl::Status StoberDrive::Configure() {
     actual_ = actual;
     cycle_ = std::chrono::duration_cast<Duration>(
         std::chrono::duration<double, std::milli>(std::max(cycle_ms, 0.125)));
+    if (SyncRpdos()) cycle_ += c.sync_period;  // an RPDO acts at the next SYNC (decision 1119)
     endless_ = travel != 0;
     execute_low_at_ = clock_.Now();
     beats = heartbeats_;

@@ -117,6 +117,9 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   absl::Status SendRpdoLocked(uint16_t number);
   TimePoint Deadline() const;
   Duration CycleTime() const;
+  // canopen.rpdo_transmission_type: synchronous RPDOs (0..240) and the comm record to configure.
+  bool SyncRpdos() const;
+  canopen::PdoCommParams RpdoComm(const PdoLayout& layout) const;
 
   // Status.
   bool OnlineLocked() const;

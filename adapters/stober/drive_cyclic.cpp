@@ -135,7 +135,7 @@ absl::Status StoberDrive::MapCyclicRpdo(bool cyclic) {
   const PdoLayout* def = FindDefaultPdo(co::PdoKind::kRpdo, 4);
   const PdoLayout& layout = cyclic ? cyclic_layout_ : *def;
   const co::PdoMapping mapping = layout.Mapping();
-  return m->ConfigurePdo(node_, co::PdoKind::kRpdo, 4, layout.comm, mapping, Deadline());
+  return m->ConfigurePdo(node_, co::PdoKind::kRpdo, 4, RpdoComm(layout), mapping, Deadline());
 }
 
 absl::StatusOr<std::unique_ptr<Drive::CyclicStream>> StoberDrive::StartCyclic(CyclicMode mode) {
