@@ -77,15 +77,21 @@ struct TrinamicTunnelRequest {
 // values in physical units, started by a rising edge of Execute I402. Unused values are ignored by
 // the command (the reference's per-command tables say which it latches).
 struct StoberMcRequest {
-  uint8_t command = 0;          // I401: 0 DoNothing ... 11 Halt
-  double position_mm = 0;       // I403 (MoveAbsolute target, MoveRelative/Additive distance)
-  double velocity_mm_s = 0;     // I404
+  uint8_t command = 0;            // I401: 0 DoNothing ... 11 Halt
+  double position_mm = 0;         // I403 (MoveAbsolute target, MoveRelative/Additive distance)
+  double velocity_mm_s = 0;       // I404
   double acceleration_mm_s2 = 0;  // I405
   double deceleration_mm_s2 = 0;  // I406
-  double jerk_mm_s3 = 0;        // I407
-  int direction = 0;            // I411 (endless axes: 0..3, §3.2)
-  double torque_percent = 0;    // A558 / I428 (TorqueControl)
-  uint32_t motion_id = 0;       // I400
+  double jerk_mm_s3 = 0;          // I407
+  int direction = 0;              // I411 (endless axes: 0..3, §3.2)
+  double torque_percent = 0;      // A558 / I428 (TorqueControl)
+  uint32_t motion_id = 0;         // I400
+  // I409 Command Mode (§2.5): 0 aborting (cancels the running block), 1 buffered (starts at the
+  // end of the running block; commands 1-5, 8, 11). Decision 1162.
+  uint8_t command_mode = 0;
+  // I429 End velocity (§3.2 L364-373, commands 1-3): the target is passed at this speed (>= 0;
+  // 0 = stop there). Decision 1161.
+  double end_velocity_mm_s = 0;
 };
 // Raw CANopen SDO access to the drive's object dictionary (CiA 301): upload (read) or download.
 struct CanOpenSdoRequest {

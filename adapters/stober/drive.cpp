@@ -36,6 +36,20 @@ absl::Status Annotate(const absl::Status& s, const std::string& prefix) {
   return absl::Status(s.code(), absl::StrCat(prefix, s.message()));
 }
 
+// Commands that can be a subsequent (buffered) block: their Done rows say "buffered: only at the
+// end of the subsequent block" (stober-motion.md §2.7 L292; decision 1162).
+bool Bufferable(uint8_t command) {
+  return (command >= mc::kMoveAbsolute && command <= mc::kStop) || command == mc::kMoveSpeed ||
+         command == mc::kHalt;
+}
+
+// Running blocks whose end the node hands over at (decision 1162): a handle of one of them that
+// a buffered block follows has completed when the take-over comes; others were cancelled.
+bool ChainsToSuccessor(uint8_t command) {
+  return (command >= mc::kMoveAbsolute && command <= mc::kMoveVelocity) ||
+         command == mc::kMoveSpeed || command == mc::kHalt;
+}
+
 }  // namespace
 
 StoberDrive::StoberDrive(DriveConfig config, const Clock& clock)
@@ -220,6 +234,8 @@ absl::Status StoberDrive::Configure() {
   ActualValues actual;
   double cycle_ms = 1;
   double travel = 0;
+  uint8_t command_mode = 0;
+  double end_velocity = 0;
   {
     DGW_ASSIGN_OR_RETURN(double cw, read({0x6040, 0}));
     image.control_word = static_cast<uint16_t>(cw);
@@ -239,6 +255,9 @@ absl::Status StoberDrive::Configure() {
     image.brake_at_end = brake != 0;
     DGW_ASSIGN_OR_RETURN(double mid, param("I400"));
     image.motion_id = static_cast<uint32_t>(mid);
+    DGW_ASSIGN_OR_RETURN(double mode, param("I409"));
+    command_mode = static_cast<uint8_t>(mode);
+    DGW_ASSIGN_OR_RETURN(end_velocity, param("I429"));
     DGW_ASSIGN_OR_RETURN(cycle_ms, param("A150"));
     DGW_ASSIGN_OR_RETURN(travel, param("I00"));
     DGW_ASSIGN_OR_RETURN(double plc, param("I89"));
@@ -259,6 +278,8 @@ absl::Status StoberDrive::Configure() {
   {
     std::lock_guard lock(mu_);
     image_ = image;
+    command_mode_ = command_mode;
+    end_velocity_ = end_velocity;
     status_ = status;
     actual_ = actual;
     cycle_ = std::chrono::duration_cast<Duration>(
@@ -446,19 +467,72 @@ DriveStatus StoberDrive::BuildStatusLocked() const {
 void StoberDrive::PublishLocked() { PublishStatus(BuildStatusLocked()); }
 
 void StoberDrive::EndTrackerLocked(CommandState state, const std::string& message) {
-  if (!tracker_) return;
+  // A buffered handle ends with a running one that fails or is aborted (decision 1210); after a
+  // DONE (a status from before the buffered edge) it waits for its own take-over.
+  std::optional<uint64_t> pending;
+  if (pending_ && state != CommandState::kDone) {
+    pending = pending_->id;
+    pending_.reset();
+  }
+  if (!tracker_ && !pending) return;
   // The status that ended the command is published first: whoever wakes on the final handle
   // reads a status that already shows its outcome.
-  const uint64_t id = tracker_->id;
+  std::optional<uint64_t> id;
+  if (tracker_) id = tracker_->id;
   tracker_.reset();
   PublishLocked();
-  UpdateCommand(id, state, message);
+  if (id) UpdateCommand(*id, state, message);
+  if (pending) UpdateCommand(*pending, state, message);
+}
+
+// Decision 1210: the buffered handle after its edge counts. I83 = 2 (decision 1163): queued
+// behind the running block, which stays ACTIVE. I83 ≠ 2 without error: the node has taken it
+// over (or started it at once because the running block had already ended): the running handle
+// is DONE if its block hands over at its end, else ABORTED, and the buffered one becomes the
+// tracked command. I91 = 1: the chain failed; the one status set (§2.3) cannot say which block,
+// so both end ERROR with the cause.
+bool StoberDrive::EvaluatePendingLocked(TimePoint now) {
+  Tracker& p = *pending_;
+  if (!p.counted) {
+    if (now < p.edge_sent + cycle_) return false;  // produced before the edge was applied
+    p.counted = true;
+  }
+  const MotionStatus& s = *status_;
+  if (!s.done() && !s.error()) p.progress.reset_seen = true;
+  if (!p.progress.reset_seen) return true;  // the edge's forced-0 cycle not seen yet
+  if (s.error()) {
+    const std::string message =
+        absl::StrCat(CommandName(p.progress.command),
+                     " (buffered) or the block before it denied or cancelled "
+                     "by the motion core: I90 ",
+                     s.cause, ": ", CauseText(s.cause));
+    EndTrackerLocked(CommandState::kError, message);
+    return true;
+  }
+  if (s.command_state() == 2) {
+    p.buffered_seen = true;
+    if (tracker_) UpdateCommand(tracker_->id, CommandState::kActive);
+    return true;
+  }
+  // The successor is ACTIVE before its predecessor ends: whoever wakes on the first handle's
+  // DONE finds the second one running.
+  std::optional<Tracker> previous = std::move(tracker_);
+  tracker_ = std::move(p);
+  pending_.reset();
+  tracker_->progress.active_seen = true;
+  UpdateCommand(tracker_->id, CommandState::kActive);
+  if (previous) {
+    const bool completed = ChainsToSuccessor(previous->progress.command);
+    UpdateCommand(previous->id, completed ? CommandState::kDone : CommandState::kAborted,
+                  completed ? "" : absl::StrCat("superseded by ", tracker_->kind));
+  }
+  return false;
 }
 
 // §2.15: DONE = I92 of the latest command (after its forced-0 cycle, §2.7), ERROR = I91 with
 // the I90 cause, ACTIVE = I83/I89 show it running; leaving Operation enabled ends it.
 void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
-  if (!tracker_ || !status_) return;
+  if ((!tracker_ && !pending_) || !status_) return;
   const MotionStatus& s = *status_;
   const PowerState p = DecodePowerState(s.status_word);
   if (p != PowerState::kOperationEnabled && p != PowerState::kQuickStopActive) {
@@ -474,6 +548,8 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
     }
     return;
   }
+  if (pending_ && EvaluatePendingLocked(now)) return;
+  if (!tracker_) return;
   if (!tracker_->counted) {
     if (now < tracker_->edge_sent + cycle_) return;  // produced before the edge was applied
     tracker_->counted = true;
@@ -797,6 +873,7 @@ absl::StatusOr<CommandInfo> StoberDrive::Home() {
 // status TPDO produced after it (or 10 ms) → Execute low → wait up to timeouts.accept for the
 // handle to leave BUSY. Execute stays low ≥ max(2 × A150, 3 ms) before the next edge (1179).
 absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
+  DGW_RETURN_IF_ERROR(WriteBlockInputs(start.command_mode, start.end_velocity));
   std::unique_lock lock(mu_);
   DGW_RETURN_IF_ERROR(RequireEnabledLocked(start.kind));
   if (image_.execute) {
@@ -836,14 +913,31 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
     DGW_RETURN_IF_ERROR(SendRpdoLocked(4));
   }
   const bool clean = status_ && !status_->done() && !status_->error();
-  const CommandInfo info = StartCommand(start.kind, true);
+  // decision 1210: I409 = 1 behind an open handle keeps that handle running and queues this
+  // one; any other start supersedes both (§2.15 CommandAborted).
+  const bool buffered =
+      start.command_mode == 1 && Bufferable(start.command) && tracker_.has_value();
+  if (pending_) {
+    UpdateCommand(pending_->id, CommandState::kAborted,
+                  absl::StrCat(buffered ? "replaced by " : "superseded by ", start.kind,
+                               buffered ? " (one buffered block, decision 1162)" : ""));
+    pending_.reset();
+  }
+  if (!buffered && tracker_) {
+    UpdateCommand(tracker_->id, CommandState::kAborted, absl::StrCat("superseded by ", start.kind));
+  }
+  const CommandInfo info = StartCommand(start.kind, !buffered);
   Tracker t;
   t.id = info.id;
   t.kind = start.kind;
   t.progress.command = start.command;
   t.progress.reset_seen = clean;
   if (start.homing) t.deadline = clock_.Now() + config().timeouts.homing;
-  tracker_ = t;
+  if (buffered) {
+    pending_ = t;
+  } else {
+    tracker_ = t;
+  }
   image_.command = start.command;
   image_.position = start.position;
   image_.execute = true;
@@ -852,8 +946,19 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
   demand_reached_ = false;
   demand_target_.reset();
   if (start.command == mc::kMoveAbsolute) demand_target_ = start.position;
-  auto mine = [&] { return tracker_ && tracker_->id == info.id; };
-  auto busy = [&] { return GetCommand(info.id)->state == CommandState::kBusy; };
+  // This command's tracker: pending_ while buffered, tracker_ otherwise (or after its take-over).
+  auto cur = [&]() -> Tracker* {
+    if (pending_ && pending_->id == info.id) return &*pending_;
+    if (tracker_ && tracker_->id == info.id) return &*tracker_;
+    return nullptr;
+  };
+  auto mine = [&] { return cur() != nullptr; };
+  // "Edge not taken yet": BUSY, and for a buffered command not yet shown queued (I83 = 2) —
+  // BUSY is its normal state until the take-over (decision 1210).
+  auto busy = [&] {
+    const Tracker* c = cur();
+    return GetCommand(info.id)->state == CommandState::kBusy && !(c && c->buffered_seen);
+  };
   // decision 1207: the node shows the start (I92/I91 = 0 cycle, I89, I83) within
   // timeouts.accept + a few A150 after the edge, or the edge was not taken.
   const Duration window = config().timeouts.accept + kAcceptCycles * cycle_;
@@ -864,20 +969,20 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
                  [&] { return !mine() || !busy(); });
       if (!mine() || !busy() || !OnlineLocked()) break;
       ++counters_.execute_retries;
-      tracker_->counted = false;
+      cur()->counted = false;
       image_.execute = true;
     }
-    tracker_->edge_sent = clock_.Now();
+    cur()->edge_sent = clock_.Now();
     if (absl::Status s = SendRpdoLocked(1); !s.ok()) {
       EndTrackerLocked(CommandState::kError, std::string(s.message()));
       return s;
     }
-    const TimePoint edge = tracker_->edge_sent;
+    const TimePoint edge = cur()->edge_sent;
     WaitLocked(lock, edge + std::max<Duration>(3 * cycle_, kEdgeFallback),
-               [&] { return !mine() || tracker_->counted; });
-    if (mine() && !tracker_->counted && OnlineLocked()) {
+               [&] { return !mine() || cur()->counted; });
+    if (mine() && !cur()->counted && OnlineLocked()) {
       // No status change after the edge: the node has cycled since, evaluate what it shows.
-      tracker_->counted = true;
+      cur()->counted = true;
       EvaluateTrackerLocked(clock_.Now());
     }
     image_.execute = false;
@@ -887,14 +992,44 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
     if (!mine() || !busy() || !OnlineLocked()) break;
   }
   if (mine() && busy() && OnlineLocked()) {
-    EndTrackerLocked(
-        CommandState::kError,
+    const std::string message =
         absl::StrCat("drive did not take the Execute edge of ", start.kind, " within ",
                      std::chrono::duration_cast<std::chrono::milliseconds>(window).count(),
-                     " ms (stober-motion.md §2.1)"));
+                     " ms (stober-motion.md §2.1)");
+    if (pending_ && pending_->id == info.id) {
+      pending_.reset();  // the running block goes on; only this edge failed
+      UpdateCommand(info.id, CommandState::kError, message);
+    } else {
+      EndTrackerLocked(CommandState::kError, message);
+    }
   }
   PublishLocked();
   return *GetCommand(info.id);
+}
+
+// decision 1209: I409 and I429 are not in the RPDO layout (all four RPDOs carry 64 bits,
+// decision 1175); they change rarely, so an SDO download before the edge, only when the node
+// holds another value. The SDO is confirmed, so the node has the value before the RPDO1 edge
+// (§2.1: set values before or with the edge).
+absl::Status StoberDrive::WriteBlockInputs(uint8_t command_mode, double end_velocity) {
+  uint8_t mode = 0;
+  double velocity = 0;
+  {
+    std::lock_guard lock(mu_);
+    mode = command_mode_;
+    velocity = end_velocity_;
+  }
+  if (command_mode != mode) {
+    DGW_RETURN_IF_ERROR(WriteBound("I409", command_mode));
+    std::lock_guard lock(mu_);
+    command_mode_ = command_mode;
+  }
+  if (end_velocity != velocity) {
+    DGW_RETURN_IF_ERROR(WriteBound("I429", end_velocity));
+    std::lock_guard lock(mu_);
+    end_velocity_ = end_velocity;
+  }
+  return absl::OkStatus();
 }
 
 // ---------------------------------------------------------------- parameters, native
@@ -1009,6 +1144,37 @@ absl::StatusOr<NativeReply> StoberDrive::SendNative(const NativeRequest& req) {
     return absl::InvalidArgumentError(absl::StrCat(
         Prefix("SendNative"), "direction: ", mcr->direction, " outside I411 0..3 (§3.2)"));
   }
+  // decisions 1161, 1162, 1209: refused here, before any frame (CT-71).
+  if (mcr->command_mode > 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(Prefix("SendNative"), "command_mode: ", mcr->command_mode,
+                     " outside I409 0..1 (0 aborting, 1 buffered; §2.5)"));
+  }
+  if (mcr->command_mode == 1 && !Bufferable(mcr->command)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        Prefix("SendNative"), "command_mode: 1 (buffered) applies to commands 1-5, 8, 11, not ",
+        CommandName(mcr->command), " (§2.7 L292)"));
+  }
+  if (mcr->end_velocity_mm_s != 0) {
+    const bool positioning = mcr->command >= mc::kMoveAbsolute && mcr->command <= mc::kMoveAdditive;
+    if (!positioning) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(Prefix("SendNative"),
+                       "end_velocity_mm_s: applies to MC_MoveAbsolute/Relative/Additive "
+                       "only (I429, §3.2), not ",
+                       CommandName(mcr->command)));
+    }
+    if (!std::isfinite(mcr->end_velocity_mm_s) || mcr->end_velocity_mm_s < 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(Prefix("SendNative"), "end_velocity_mm_s: ", mcr->end_velocity_mm_s,
+                       " must be >= 0 (I429 is a speed; the sign is the travel direction)"));
+    }
+    auto binding = FindBinding(P("I429"));
+    if (!binding.ok()) return binding.status();
+    if (auto raw = ToRaw(*binding, mcr->end_velocity_mm_s); !raw.ok()) {
+      return Annotate(raw.status(), Prefix("SendNative") + "end_velocity_mm_s: ");
+    }
+  }
   std::lock_guard op(op_mu_);
   {
     std::lock_guard lock(mu_);
@@ -1028,6 +1194,8 @@ absl::StatusOr<NativeReply> StoberDrive::SendNative(const NativeRequest& req) {
   s.direction = mcr->direction;
   s.motion_id = mcr->motion_id;
   s.homing = mcr->command == mc::kHome;
+  s.command_mode = mcr->command_mode;
+  s.end_velocity = mcr->end_velocity_mm_s;
   DGW_ASSIGN_OR_RETURN(CommandInfo info, StartMc(s));
   if (mcr->command == mc::kDoNothing) {
     // MC_DoNothing produces no status information (§2.7 L135): done once sent.

@@ -98,6 +98,7 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
     CommandProgress progress;
     TimePoint edge_sent{};
     bool counted = false;               // a TPDO1 produced after the edge arrived
+    bool buffered_seen = false;         // pending: the node showed it buffered (I83 = 2)
     std::optional<TimePoint> deadline;  // homing
   };
 
@@ -126,6 +127,11 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   DriveStatus BuildStatusLocked() const;
   void PublishLocked();
   void EvaluateTrackerLocked(TimePoint now);
+  // The buffered handle (decision 1210): true when it consumed the status (waiting, chain
+  // error); false before its edge counts, or after it took over (tracker_ is then evaluated).
+  bool EvaluatePendingLocked(TimePoint now);
+  // I409/I429 by SDO before the edge when they differ from the node (decision 1209).
+  absl::Status WriteBlockInputs(uint8_t command_mode, double end_velocity);
   void EndTrackerLocked(CommandState state, const std::string& message);
   absl::Status RequireOnlineLocked(const std::string& what) const;
   absl::Status RequireEnabledLocked(const std::string& what) const;
@@ -156,6 +162,8 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
     std::optional<int> direction;
     std::optional<uint32_t> motion_id;
     bool homing = false;
+    uint8_t command_mode = 0;  // I409: 0 aborting, 1 buffered (decision 1162)
+    double end_velocity = 0;   // I429 (1-3)
   };
   absl::StatusOr<CommandInfo> StartMc(const McStart& start);
   absl::StatusOr<McStart> PlanMove(const MotionCommand& cmd) const;
@@ -199,6 +207,13 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   uint16_t emcy_code_ = 0;
   std::string emcy_text_;
   std::optional<Tracker> tracker_;
+  // A command started with I409 = 1 behind tracker_: BUSY until the node's take-over (I83 leaves
+  // 2), then it becomes tracker_ (decision 1210).
+  std::optional<Tracker> pending_;
+  // I409 / I429 as the node holds them (read back at configuration, written by SDO before an
+  // edge that needs other values; not in the RPDO layout, decision 1209).
+  uint8_t command_mode_ = 0;
+  double end_velocity_ = 0;
   bool disabling_ = false;
   // Set position of the last absolute positioning (demand position once it is Done, decision 1203).
   std::optional<double> demand_target_;
