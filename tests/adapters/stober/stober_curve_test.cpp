@@ -79,6 +79,7 @@ class StoberCurveTest : public ::testing::Test {
     config_.canopen.heartbeat = 50ms;
     config_.canopen.heartbeat_timeout = 200ms;
     config_.canopen.sdo_timeout = 300ms;
+    config_.canopen.rpdo_transmission_type = RpdoTransmissionType();
     auto drive = CreateStoberDrive(config_, SteadyClock::Instance());
     ASSERT_TRUE(drive.ok()) << drive.status();
     drive_.reset(static_cast<StoberDrive*>(drive->release()));
@@ -95,6 +96,8 @@ class StoberCurveTest : public ::testing::Test {
     // the ERROR path, not what this fixture tests (decision 1208).
     ASSERT_TRUE(drive_->WriteParameter(ParameterRef{Id("I423"), false}, 100).ok());
   }
+  // 255 = event-driven RPDOs (the default), 1 = synchronous (decision 1119).
+  virtual uint8_t RpdoTransmissionType() const { return 255; }
   void TearDown() override {
     if (drive_) drive_->Deactivate();
     if (server_) server_->Stop();
@@ -173,6 +176,22 @@ TEST_F(StoberCurveTest, RunsToTheEndPointDone_ProgressRisesToOneInTheStatus) {
   ASSERT_TRUE(again.ok()) << again.status();
   EXPECT_EQ(WaitFinal(again->id).state, CommandState::kDone);
   EXPECT_NEAR(SimPosition(), 5, CurveRunOptions{}.start_tolerance_mm);
+}
+
+// Synchronous RPDOs (applied at the next SYNC, decision 1119): the set points still arrive one per
+// cycle and the run ends DONE at the end point.
+class StoberCurveSyncRpdoTest : public StoberCurveTest {
+ protected:
+  uint8_t RpdoTransmissionType() const override { return 1; }
+};
+
+TEST_F(StoberCurveSyncRpdoTest, RunsToTheEndPointDone) {
+  auto r = drive_->RunCurve(Stroke(0, -15, 0.4), CurveRunOptions{});
+  ASSERT_TRUE(r.ok()) << r.status();
+  const CommandInfo done = WaitFinal(r->id);
+  ASSERT_EQ(done.state, CommandState::kDone) << done.message;
+  EXPECT_DOUBLE_EQ(*done.progress, 1.0);
+  EXPECT_NEAR(SimPosition(), -15, CurveRunOptions{}.start_tolerance_mm);
 }
 
 TEST_F(StoberCurveTest, RefusedAwayFromTheStart_MessageNamesBothPositions) {
