@@ -163,17 +163,20 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunCurve(const Curve& curve,
   track.end_mm = end_mm;
   track.tolerance_mm = options.start_tolerance_mm;
   track.duration = duration;
-  return RunMotion("RunCurve", cmd, /*needs_in_target=*/true, duration, track);
+  return RunMotion("RunCurve", cmd, /*needs_in_target=*/false, duration, track);
 }
 
 std::optional<std::pair<CommandState, std::string>> LinMotUdpDrive::EvaluateCurveLocked(
     MotionTracker& m, TimePoint now, bool finished) {
   CurveTrack& c = *m.curve;
   if (finished) {
-    // Decision 707: DONE needs the curve's end point, not only In Target Position.
+    // Decision 707: DONE = set-point generation over and the axis at the curve's end point (the
+    // manual does not say that a curve sets In Target Position). Outside the tolerance the axis
+    // may still be settling: wait until the D-11 completion deadline, then ERROR.
     const double actual_mm =
         static_cast<double>(sample_.actual_position) * LinMotParametricCurve::kPointUnitMm;
     if (std::abs(actual_mm - c.end_mm) > c.tolerance_mm) {
+      if (!m.completion_deadline || now < *m.completion_deadline) return std::nullopt;
       return std::make_pair(
           CommandState::kError,
           absl::StrFormat("curve ended at %.4f mm, %.4f mm from its end point %.4f mm "
