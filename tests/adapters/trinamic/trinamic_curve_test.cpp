@@ -213,5 +213,25 @@ TEST_F(TrinamicCurveTest, MoveDuringTheRunAbortsIt_AndTheMoveCompletes) {
   EXPECT_EQ(SimPosition(), 0);
 }
 
+TEST_F(TrinamicCurveTest, LinkLossDuringTheRunEndsItError) {
+  auto r = drive_->RunCurve(Stroke(0, 6000, 2.0), CurveRunOptions{});
+  ASSERT_TRUE(r.ok()) << r.status();
+  WaitUntil([&](const DriveStatus&) {
+    const auto info = drive_->GetCommand(r->id);
+    return info->progress && *info->progress > 0.1;
+  });
+  server_->SetSilent(true);  // executes words, answers no query
+  const CommandInfo lost = WaitFinal(r->id);
+  EXPECT_EQ(lost.state, CommandState::kError);
+  EXPECT_THAT(lost.message, HasSubstr("link lost"));
+  EXPECT_LT(*lost.progress, 1.0);
+  server_->SetSilent(false);
+  const DriveStatus back = WaitUntil([](const DriveStatus& s) {
+    return s.state == DriveState::kEnabled || s.state == DriveState::kDisabled;
+  });
+  EXPECT_NE(back.state, DriveState::kOffline);
+  EXPECT_EQ(drive_->GetCommand(r->id)->state, CommandState::kError);  // final states are sticky
+}
+
 }  // namespace
 }  // namespace drivegw::trinamic
