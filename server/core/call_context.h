@@ -8,8 +8,14 @@ namespace drivegw::server {
 // principal is "anonymous" until authentication.
 struct CallContext {
   std::string principal = "anonymous";
+  // The principal's role name ("viewer", "operator", "engineer", "admin"); "" before
+  // authentication (issue 7).
+  std::string role;
   std::string source_address;
   std::string transport;  // "grpc" or "rest"
+  // Client-chosen key of a mutating call (gRPC metadata / HTTP header `idempotency-key`): a retry
+  // with the same key returns the first result (issue 7). "" = none.
+  std::string idempotency_key;
 };
 
 }  // namespace drivegw::server

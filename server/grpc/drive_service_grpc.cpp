@@ -111,6 +111,7 @@ CallContext ContextFrom(const grpc::CallbackServerContext& ctx) {
                        absl::StartsWith(peer, "unix:");
   cc.transport = "grpc";
   cc.source_address = peer;
+  cc.idempotency_key = Metadata(ctx, "idempotency-key");
   if (!network) {
     if (std::string src = Metadata(ctx, "x-drivegw-source"); !src.empty()) cc.source_address = src;
     if (std::string tr = Metadata(ctx, "x-drivegw-transport"); !tr.empty()) cc.transport = tr;

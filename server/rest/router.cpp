@@ -401,10 +401,14 @@ struct Router::Inflight {
 
 namespace {
 
-std::unique_ptr<grpc::ClientContext> MakeContext(const std::string& peer) {
+std::unique_ptr<grpc::ClientContext> MakeContext(const HttpRequest& request) {
   auto ctx = std::make_unique<grpc::ClientContext>();
-  ctx->AddMetadata("x-drivegw-source", peer.empty() ? "unknown" : peer);
+  ctx->AddMetadata("x-drivegw-source", request.peer.empty() ? "unknown" : request.peer);
   ctx->AddMetadata("x-drivegw-transport", "rest");
+  if (!request.authorization.empty()) ctx->AddMetadata("authorization", request.authorization);
+  if (!request.idempotency_key.empty()) {
+    ctx->AddMetadata("idempotency-key", request.idempotency_key);
+  }
   return ctx;
 }
 
@@ -892,7 +896,7 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
     sink->OnResponse(ErrorResponse(500, kInternal, "request serialization failed"));
     return;
   }
-  auto ctx = MakeContext(request.peer);
+  auto ctx = MakeContext(request);
   grpc::GenericStub stub(options_.channel);
   if (route.server_streaming) {
     auto reactor = std::make_shared<StreamReactor>(std::move(ctx), ToByteBuffer(bytes), sink,

@@ -29,6 +29,10 @@ struct HttpRequest {
   // If-Match header ("" if none): fills a request's top-level `etag` field when the body and
   // query left it empty (conditional updates, decision 011).
   std::string if_match;
+  // Authorization and Idempotency-Key headers ("" if none), forwarded to the in-process gRPC call
+  // as the metadata `authorization` and `idempotency-key` (issue 7: one enforcement point).
+  std::string authorization;
+  std::string idempotency_key;
 };
 
 struct HttpResponse {

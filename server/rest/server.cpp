@@ -210,8 +210,13 @@ class Session : public std::enable_shared_from_this<Session> {
     slot.method = Str(req.method_string());
     slot.target = Str(req.target());
     accepting_ = slot.keep_alive;
-    HttpRequest request{slot.method, slot.target, std::move(req.body()), peer_,
-                        Str(req[http::field::if_match])};
+    HttpRequest request{slot.method,
+                        slot.target,
+                        std::move(req.body()),
+                        peer_,
+                        Str(req[http::field::if_match]),
+                        Str(req[http::field::authorization]),
+                        Str(req["Idempotency-Key"])};
     const uint64_t id = slot.id;
     slots_.push_back(std::move(slot));
     UpdateIdleDeadline();
