@@ -17,6 +17,15 @@ namespace {
 constexpr int kMaxStoberCommand = 11;
 // I411 movement direction: 0 optimized, 1 positive, 2 negative, 3 keep (§3.2, L263-271).
 constexpr uint32_t kMaxDirection = 3;
+// I409 Command Mode: 0 aborting, 1 buffered (§2.5 L228-245; decision 1162).
+constexpr uint32_t kMaxCommandMode = 1;
+// I429 is UNSIGNED32 in 0.001 u/s (adapters/stober/object_map.cpp, decision 1172).
+constexpr double kMaxEndVelocity = 4294967.295;
+
+// Commands that can be a buffered (subsequent) block: 1-5, 8, 11 (§2.7 L292).
+bool Bufferable(int command) {
+  return (command >= 1 && command <= 5) || command == 8 || command == 11;
+}
 // The largest download the SDO client accepts (kSdoDefaultMaxSize, decision 1103).
 constexpr size_t kMaxSdoBytes = 65536;
 
@@ -42,6 +51,7 @@ absl::StatusOr<NativeRequest> ValidateStober(const v1::StoberMotionCommand& c) {
       {"stober.deceleration_mm_s2", c.deceleration_mm_s2()},
       {"stober.jerk_mm_s3", c.jerk_mm_s3()},
       {"stober.torque_percent", c.torque_percent()},
+      {"stober.end_velocity_mm_s", c.end_velocity_mm_s()},
   };
   for (const auto& [field, v] : values) {
     if (auto s = CheckFinite(field, v); !s.ok()) return s;
@@ -57,6 +67,28 @@ absl::StatusOr<NativeRequest> ValidateStober(const v1::StoberMotionCommand& c) {
     return FieldError("stober.motion_id",
                       absl::StrCat(c.motion_id(), " exceeds 2147483647 (I400 is 32-bit signed)"));
   }
+  if (c.command_mode() > kMaxCommandMode) {
+    return FieldError("stober.command_mode",
+                      absl::StrCat(c.command_mode(),
+                                   " exceeds 1 (I409: 0 aborting, 1 buffered; stober-motion.md "
+                                   "§2.5)"));
+  }
+  if (c.command_mode() == 1 && !Bufferable(command)) {
+    return FieldError("stober.command_mode",
+                      absl::StrCat("1 (buffered) applies to commands 1-5, 8, 11, not ", command,
+                                   " (stober-motion.md §2.7)"));
+  }
+  if (c.end_velocity_mm_s() < 0 || c.end_velocity_mm_s() > kMaxEndVelocity) {
+    return FieldError("stober.end_velocity_mm_s",
+                      absl::StrCat(c.end_velocity_mm_s(),
+                                   " outside 0..4294967.295 (I429 is a speed, the sign is the "
+                                   "travel direction)"));
+  }
+  if (c.end_velocity_mm_s() != 0 && (command < 1 || command > 3)) {
+    return FieldError("stober.end_velocity_mm_s",
+                      absl::StrCat("applies to MoveAbsolute/Relative/Additive (1-3) only, not ",
+                                   command, " (I429, stober-motion.md §3.2)"));
+  }
   StoberMcRequest out;
   out.command = static_cast<uint8_t>(command);
   out.position_mm = c.position_mm();
@@ -67,6 +99,8 @@ absl::StatusOr<NativeRequest> ValidateStober(const v1::StoberMotionCommand& c) {
   out.direction = static_cast<int>(c.direction());
   out.torque_percent = c.torque_percent();
   out.motion_id = c.motion_id();
+  out.command_mode = static_cast<uint8_t>(c.command_mode());
+  out.end_velocity_mm_s = c.end_velocity_mm_s();
   return out;
 }
 

@@ -154,6 +154,40 @@ TEST_F(NativeStoberTest, DirectionAbove3_AndMotionIdAbove31Bit_Refused) {
   EXPECT_THAT(id.status().message(), HasSubstr("exceeds 2147483647"));
 }
 
+// stober-motion.md §2.5, §3.2 L364-373; decisions 1161, 1162: Command Mode I409 and End
+// velocity I429 reach the drive; out of range or on the wrong command they name field and limit.
+TEST_F(NativeStoberTest, CommandModeAndEndVelocity_ReachDrive_RangesNamed) {
+  v1::SendNativeCommandRequest r = Mc("st1", v1::MC_MOVE_ABSOLUTE);
+  r.mutable_stober()->set_command_mode(1);
+  r.mutable_stober()->set_end_velocity_mm_s(80);
+  ASSERT_TRUE(Send(r).ok());
+  const auto sent = st_.native();
+  ASSERT_TRUE(sent.has_value());
+  const auto* mc = std::get_if<StoberMcRequest>(&*sent);
+  ASSERT_NE(mc, nullptr);
+  EXPECT_EQ(mc->command_mode, 1);
+  EXPECT_EQ(mc->end_velocity_mm_s, 80);
+  r.mutable_stober()->set_command_mode(2);
+  auto mode = Send(r);
+  EXPECT_EQ(ViolationField(mode.status()), "stober.command_mode");
+  EXPECT_THAT(mode.status().message(), HasSubstr("2 exceeds 1 (I409"));
+  v1::SendNativeCommandRequest home = Mc("st1", v1::MC_HOME);
+  home.mutable_stober()->set_command_mode(1);
+  auto buffered_home = Send(home);
+  EXPECT_EQ(ViolationField(buffered_home.status()), "stober.command_mode");
+  EXPECT_THAT(buffered_home.status().message(), HasSubstr("applies to commands 1-5, 8, 11"));
+  r.mutable_stober()->set_command_mode(0);
+  r.mutable_stober()->set_end_velocity_mm_s(-1);
+  auto negative = Send(r);
+  EXPECT_EQ(ViolationField(negative.status()), "stober.end_velocity_mm_s");
+  EXPECT_THAT(negative.status().message(), HasSubstr("outside 0..4294967.295"));
+  v1::SendNativeCommandRequest velocity = Mc("st1", v1::MC_MOVE_VELOCITY);
+  velocity.mutable_stober()->set_end_velocity_mm_s(5);
+  auto wrong = Send(velocity);
+  EXPECT_EQ(ViolationField(wrong.status()), "stober.end_velocity_mm_s");
+  EXPECT_THAT(wrong.status().message(), HasSubstr("applies to MoveAbsolute/Relative/Additive"));
+}
+
 TEST_F(NativeStoberTest, SdoUpload_ReachesDrive_BytesReturnedAsReply) {
   NativeReply reply;
   reply.data = {0x01, 0x00, 0x00, 0x00};
