@@ -70,7 +70,13 @@ TEST_F(BufferedTest, BufferedMoveAbsoluteEndsAtSecondTargetDoneOnlyAtTheEnd) {
   AtRest(150);
   // The wire: after the buffered edge I83 = 2, then the take-over (I83 back to 1), and only then
   // the first I92 = 1.
-  const std::vector<Seen> all = sniffer_->frames();
+  // The sniffer's socket may lag the drive's (wire.h): wait for the I92 = 1 to be recorded.
+  const std::vector<Seen> all = sniffer_->Until(
+      [&](const std::vector<Seen>& f) {
+        return Sniffer::Any(f, mark, kTpdo1,
+                            [](const transport::CanFrame& x) { return DecodeTpdo1(x).done(); });
+      },
+      "I92 = 1 of the subsequent block");
   bool queued = false;
   bool taken_over = false;
   bool done = false;
@@ -105,6 +111,11 @@ TEST_F(BufferedTest, EndVelocityPassesTheFirstTargetWithoutStopping) {
   EXPECT_EQ(drive_->GetCommand(first)->state, CommandState::kDone);
   AtRest(150);
   // Every actual-value sample between 90 and 140 mm moved at ≥ 40 mm/s: never stopped at 100.
+  EXPECT_TRUE(sniffer_->WaitFor([&](const std::vector<Seen>& f) {
+    return Sniffer::Any(f, mark, kTpdo2, [](const transport::CanFrame& x) {
+      return DecodeTpdo2(x).at(0) >= 150 - 1e-6;
+    });
+  })) << "the end position never on the bus";
   int near_pass = 0;
   for (const std::vector<double>& a : Actuals(mark)) {
     ASSERT_EQ(a.size(), 2u);
@@ -123,6 +134,10 @@ TEST_F(BufferedTest, EndVelocityWithoutSuccessorReturnsToTheTarget) {
   const CommandInfo end = WaitFinal(Native(MoveAbs(100, 0, 150)));
   EXPECT_EQ(end.state, CommandState::kDone) << end.message;
   AtRest(100);
+  sniffer_->WaitFor([&](const std::vector<Seen>& f) {
+    return Sniffer::Any(f, mark, kTpdo2,
+                        [](const transport::CanFrame& x) { return DecodeTpdo2(x).at(0) > 101; });
+  });
   double max_position = 0;
   for (const std::vector<double>& a : Actuals(mark)) max_position = std::max(max_position, a[0]);
   EXPECT_GT(max_position, 101);  // 150²/(2·2000) ≈ 5.6 mm of braking beyond the target
@@ -140,6 +155,11 @@ TEST_F(BufferedTest, AbortingModeStillAborts) {
   const CommandInfo end = WaitFinal(second);
   EXPECT_EQ(end.state, CommandState::kDone) << end.message;
   AtRest(150);
+  sniffer_->WaitFor([&](const std::vector<Seen>& f) {
+    return Sniffer::Any(f, mark, kTpdo2, [](const transport::CanFrame& x) {
+      return DecodeTpdo2(x).at(0) >= 150 - 1e-6;
+    });
+  });
   for (const std::vector<double>& a : Actuals(mark)) {
     if (a[0] > 95 && a[0] < 105) {
       EXPECT_GT(a[1], 100) << "slowed down at the first target";
