@@ -181,6 +181,34 @@ TEST_F(BufferedTest, AbortingStartSupersedesRunningAndBufferedHandles) {
   EXPECT_EQ(Sim("I409"), 0);  // the unified Move is aborting (decision 1209)
 }
 
+// Decisions 1162, 1210: a buffered block denied at its take-over (target beyond I50, §2.8
+// L386-388): the take-over cycle shows I83 ≠ 2 with I91 still 0 (§2.7: 0 for ≥ one cycle at a
+// start), so the first handle is DONE — its block ended at its target — and the second ERROR.
+TEST_F(BufferedTest, BufferedBlockDeniedAtTakeOverFirstDoneSecondError) {
+  const uint64_t first = Native(MoveAbs(100));
+  WaitUntil([](const DriveStatus& s) { return s.position_mm > 20; });
+  const uint64_t second = Native(MoveAbs(20000, 1));  // I50 = 10000 (F-LIN)
+  ASSERT_EQ(drive_->GetCommand(second)->state, CommandState::kBusy);
+  const CommandInfo end = WaitFinal(second);
+  EXPECT_EQ(end.state, CommandState::kError);
+  EXPECT_THAT(end.message, HasSubstr("software limits"));
+  EXPECT_EQ(drive_->GetCommand(first)->state, CommandState::kDone);
+  EXPECT_EQ(Sim("I80"), 100);  // the first block had ended at rest on its target
+}
+
+// Decision 1210: Disable ends the running and the buffered handle ABORTED.
+TEST_F(BufferedTest, DisableWhileBufferedAbortsBothHandles) {
+  const uint64_t first = Native(MoveAbs(100));
+  WaitUntil([](const DriveStatus& s) { return s.position_mm > 20; });
+  const uint64_t second = Native(MoveAbs(150, 1));
+  ASSERT_EQ(drive_->GetCommand(second)->state, CommandState::kBusy);
+  auto off = drive_->Disable();
+  ASSERT_TRUE(off.ok()) << off.status();
+  EXPECT_EQ(drive_->GetCommand(first)->state, CommandState::kAborted);
+  EXPECT_EQ(drive_->GetCommand(second)->state, CommandState::kAborted);
+  EXPECT_EQ(Sim("I83"), 0);
+}
+
 // Decisions 1161, 1162, 1209: refused locally naming the field and the limit, before any frame.
 TEST_F(BufferedTest, InvalidCommandModeOrEndVelocityRefusedBeforeAnyFrame) {
   const size_t mark = SyncedMark();
