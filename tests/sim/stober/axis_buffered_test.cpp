@@ -279,5 +279,49 @@ TEST(StoberAxisBuffered, BUF11_EnableOffDropsTheBufferedBlock) {
   EXPECT_LT(axis.R("I80"), 300);
 }
 
+// BUF-12 — §3.3/§3.4 inputs (End velocity for 2 and 3, L460, L650): a MoveRelative passes its
+// target at I429 into a buffered MoveAdditive, whose base is the MoveRelative's set position
+// (L741).
+TEST(StoberAxisBuffered, BUF12_RelativePassesIntoBufferedAdditive) {
+  TestAxis axis;
+  axis.W("I403", 200);
+  axis.W("I429", 100);
+  axis.Start(Command::kMoveRelative);
+  axis.Advance(20);
+  axis.W("I429", 0);
+  axis.W("I409", 1);
+  axis.W("I403", 100);
+  axis.Start(Command::kMoveAdditive);
+  const Trace tr = RunChain(axis, 200, 300);
+  ASSERT_GT(tr.cycles, 0);
+  EXPECT_NEAR(tr.velocity_at_first, 100, 10);
+  EXPECT_FALSE(tr.stopped_between);
+  EXPECT_EQ(axis.R("I80"), 300);
+}
+
+// BUF-13 — decisions 1161/1162: a subsequent block buffered after the pass (while the block
+// without successor brakes and returns) starts at the end of that return, from rest on the
+// target.
+TEST(StoberAxisBuffered, BUF13_SuccessorBufferedDuringTheReturnStartsAfterIt) {
+  TestAxis axis;
+  axis.W("I429", 300);
+  axis.MoveAbsolute(300);
+  ASSERT_GT(axis.RunUntil([&] { return axis.R("I96") > 300; }), 0);  // passed, now braking
+  axis.W("I429", 0);
+  axis.W("I409", 1);
+  axis.MoveAbsolute(500);
+  ASSERT_EQ(axis.R("I83"), 2);
+  // It returns to 300 first (the block's end), then heads for 500.
+  double min_after_pass = 1e9;
+  ASSERT_GT(axis.RunUntil([&] {
+    min_after_pass = std::min(min_after_pass, axis.R("I96"));
+    return axis.R("I83") != 2;
+  }),
+            0);
+  EXPECT_NEAR(min_after_pass, 300, 1e-6);
+  ASSERT_GT(axis.RunUntilDone(), 0);
+  EXPECT_EQ(axis.R("I80"), 500);
+}
+
 }  // namespace
 }  // namespace drivegw::sim::stober
