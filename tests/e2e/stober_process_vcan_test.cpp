@@ -126,11 +126,13 @@ class Process {
   int exit_status_ = 0;
 };
 
-// Polls `pred` every 20 ms until it holds or `timeout` passes.
-bool Eventually(const std::function<bool()>& pred, std::chrono::milliseconds timeout) {
+// Polls `pred` every 20 ms until it holds, `timeout` passes or `alive` (when given) turns false.
+bool Eventually(const std::function<bool()>& pred, std::chrono::milliseconds timeout,
+                const std::function<bool()>& alive = nullptr) {
   const auto deadline = Clock::now() + timeout;
   while (Clock::now() < deadline) {
     if (pred()) return true;
+    if (alive && !alive()) return pred();
     std::this_thread::sleep_for(20ms);
   }
   return pred();
@@ -190,8 +192,8 @@ class StoberProcessTest : public ::testing::TestWithParam<int> {
                                                               "--node", std::to_string(kNode)},
                                      dir_ + "/sim.log");
     ASSERT_TRUE(sim_->started()) << sim << ": posix_spawn error " << sim_->spawn_error();
-    ASSERT_TRUE(
-        Eventually([&] { return sim_->log().find("stober node") != std::string::npos; }, kDeadline))
+    ASSERT_TRUE(Eventually([&] { return sim_->log().find("stober node") != std::string::npos; },
+                           kDeadline, [&] { return sim_->Running(); }))
         << "drivegw-sim did not come up: " << sim_->Describe();
 
     const std::string config = dir_ + "/drivegw.yaml";
@@ -223,7 +225,7 @@ class StoberProcessTest : public ::testing::TestWithParam<int> {
           http_port_ = std::atoi(log.c_str() + at + 9);
           return http_port_ > 0;
         },
-        kDeadline))
+        kDeadline, [&] { return gateway_->Running(); }))
         << "drivegw did not start: " << gateway_->Describe();
   }
 
@@ -237,6 +239,11 @@ class StoberProcessTest : public ::testing::TestWithParam<int> {
     }
     std::error_code ec;
     std::filesystem::remove_all(dir_, ec);
+  }
+
+  // Both processes still run (a wait ends early, with their output, when one died).
+  std::function<bool()> Alive() {
+    return [this] { return gateway_->Running() && sim_->Running(); };
   }
 
   // One request; the body parsed (null when it is not JSON).
@@ -284,7 +291,7 @@ TEST_P(StoberProcessTest, ListEnableMoveAbsoluteSdoDisable_OverRest) {
         const std::string s = State();
         return !s.empty() && s != "OFFLINE" && s != "DRIVE_STATE_UNSPECIFIED";
       },
-      kDeadline))
+      kDeadline, Alive()))
       << "drive stayed " << State() << ": " << Drive().dump();
 
   // The gateway wrote the configured RPDO transmission type (1400h sub 2, CiA 301 §7.5.2.35).
@@ -310,7 +317,7 @@ TEST_P(StoberProcessTest, ListEnableMoveAbsoluteSdoDisable_OverRest) {
         final_state = status == 200 ? h.value("state", "") : "";
         return final_state == "DONE" || final_state == "ERROR" || final_state == "ABORTED";
       },
-      kDeadline))
+      kDeadline, Alive()))
       << "MoveAbsolute still " << final_state << ": " << last_body_;
   EXPECT_EQ(final_state, "DONE") << last_body_;
 
@@ -321,7 +328,7 @@ TEST_P(StoberProcessTest, ListEnableMoveAbsoluteSdoDisable_OverRest) {
         position = Drive()["status"].value("position_mm", 0.0);
         return std::abs(position - 25.0) < 0.001;
       },
-      kDeadline))
+      kDeadline, Alive()))
       << "position " << position << ": " << Drive().dump();
 
   // 6. Native CanOpenSdo upload of 6041h: Operation enabled (xxxx xxxx x01x 0111, CiA 402).
@@ -334,7 +341,8 @@ TEST_P(StoberProcessTest, ListEnableMoveAbsoluteSdoDisable_OverRest) {
   auto [dis_status, dis] = Call("POST", "/v1/drives/s1:disable", "{}");
   ASSERT_EQ(dis_status, 200) << last_body_;
   EXPECT_EQ(dis.value("state", ""), "DONE") << last_body_;
-  EXPECT_TRUE(Eventually([&] { return State() != "ENABLED" && !State().empty(); }, kDeadline))
+  EXPECT_TRUE(
+      Eventually([&] { return State() != "ENABLED" && !State().empty(); }, kDeadline, Alive()))
       << Drive().dump();
   const std::vector<uint8_t> off = SdoRead(0x6041, 0);
   ASSERT_EQ(off.size(), 2u) << last_body_;
