@@ -915,8 +915,10 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
   const bool clean = status_ && !status_->done() && !status_->error();
   // decision 1210: I409 = 1 behind an open handle keeps that handle running and queues this
   // one; any other start supersedes both (§2.15 CommandAborted).
-  const bool buffered =
-      start.command_mode == 1 && Bufferable(start.command) && tracker_.has_value();
+  // Behind an MC_Stop the node denies every start (L1059, sim decision 1160): that is an
+  // aborting start for the handles, as without I409.
+  const bool buffered = start.command_mode == 1 && Bufferable(start.command) &&
+                        tracker_.has_value() && tracker_->progress.command != mc::kStop;
   if (pending_) {
     UpdateCommand(pending_->id, CommandState::kAborted,
                   absl::StrCat(buffered ? "replaced by " : "superseded by ", start.kind,

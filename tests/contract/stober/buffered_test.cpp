@@ -196,6 +196,19 @@ TEST_F(BufferedTest, BufferedBlockDeniedAtTakeOverFirstDoneSecondError) {
   EXPECT_EQ(Sim("I80"), 100);  // the first block had ended at rest on its target
 }
 
+// L1059, sim decision 1160, decision 1210: behind an active MC_Stop the node denies every start,
+// buffered or not: the Stop handle is ABORTED (its Done is never reported), the new one ERROR.
+TEST_F(BufferedTest, BufferedStartBehindAnActiveStopIsDenied) {
+  Native(MoveAbs(150));
+  WaitUntil([](const DriveStatus& s) { return s.position_mm > 40; });
+  const CommandInfo stop = Move(StopMotion{400});  // 200 mm/s at 400 mm/s²: 0.5 s of braking
+  const uint64_t next = Native(MoveAbs(150, 1));
+  EXPECT_EQ(drive_->GetCommand(stop.id)->state, CommandState::kAborted);
+  const CommandInfo end = WaitFinal(next);
+  EXPECT_EQ(end.state, CommandState::kError);
+  EXPECT_THAT(end.message, HasSubstr("MC_Stop"));
+}
+
 // Decision 1210: Disable ends the running and the buffered handle ABORTED.
 TEST_F(BufferedTest, DisableWhileBufferedAbortsBothHandles) {
   const uint64_t first = Native(MoveAbs(100));
