@@ -6,6 +6,7 @@ PKGS=(build-essential cmake ninja-build pkg-config ccache clang
   libboost-dev libboost-system-dev libsqlite3-dev sqlite3 libyaml-cpp-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev golang-grpc-gateway
   python3-grpcio curl
+  openssl libssl-dev
   python3-can python3-msgpack
   qemu-system-x86 busybox-static cpio kmod xz-utils)
 missing=()

@@ -24,6 +24,7 @@
 #include "server/config/can_config.h"
 #include "server/config/section.h"
 #include "server/config/stober_config.h"
+#include "server/config/tls_config.h"
 #include "server/config/trinamic_config.h"
 
 namespace drivegw::config {
@@ -389,7 +390,7 @@ absl::StatusOr<GatewayConfig> ParseDocument(const YAML::Node& doc,
                                             std::span<const std::string_view> families) {
   GatewayConfig cfg;
   Errors errors;
-  const Section root(doc, "", {"listen", "data_dir", "drives"}, errors);
+  const Section root(doc, "", {"listen", "data_dir", "drives", "tls"}, errors);
   if (!doc.IsNull() && !doc.IsMap()) return errors.ToStatus();
   ParseListen(root, cfg.listen);
   if (root.String("data_dir", cfg.data_dir) && cfg.data_dir.empty()) {
@@ -399,6 +400,7 @@ absl::StatusOr<GatewayConfig> ParseDocument(const YAML::Node& doc,
     cfg.demo = false;
     ParseDrives(root, families, cfg);
   }
+  internal::ParseTls(root, cfg.tls);
   if (!errors.empty()) return errors.ToStatus();
   return cfg;
 }
