@@ -1,16 +1,15 @@
 // End to end over real sockets (issue 6 "Curve sets"): the demo gateway's REST and gRPC front ends
 // with the embedded simulators. A curve set is created over REST, plotted over REST and gRPC
-// (p = t² -> a = 2), checked against a drive's axis, updated (a stale etag is 412), downloaded and
-// run on the LinMot axis x1 and the STOBER axis s1: a family with a curve runner in this build
-// takes the curve to DONE at its end point, one without answers the clear FailedPrecondition
-// mapping (decision 014); STOBER never stores curves. The audit log holds every mutating call.
+// (p = t² -> a = 2), checked against a drive's axis, updated (a stale etag is 412), downloaded to
+// the LinMot axis x1 and run to DONE at its end point on x1 (native), the STOBER axis s1 (cyclic
+// set points) and the Trinamic axis feeder-x (timed legs); STOBER stores no curves and answers the
+// clear FailedPrecondition mapping (decision 014). The audit log holds every mutating call.
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <iostream>
 #include <random>
 #include <regex>
 #include <sstream>
@@ -184,6 +183,35 @@ class CurveSetsE2eTest : public ::testing::Test {
         R"({"name": "curveSets/e2e", "curve": "smooth", "start_tolerance_mm": 0.5})");
   }
 
+  // Moves `drive` to the start, runs "smooth" until its handle is final and checks the run's one
+  // audit entry names the command. Returns the final handle's JSON.
+  std::string RunToFinal(const std::string& drive) {
+    MoveToStart(drive);
+    auto run = RunSmooth(drive);
+    EXPECT_EQ(run.status, 200) << run.body;
+    if (run.status != 200) return "";
+    EXPECT_EQ(Field(run.body, "kind"), "RunCurve") << run.body;
+    const std::string command = Field(run.body, "name");
+    EXPECT_EQ(command.rfind("drives/" + drive + "/commands/", 0), 0u) << run.body;
+    const std::string final_body = WaitCommandFinal(command);
+    auto audited = Audit("RunCurve", drive);
+    EXPECT_EQ(audited.size(), 1u);
+    if (!audited.empty()) {
+      EXPECT_EQ(audited[0].result_code, 0);
+      EXPECT_NE(audited[0].request_json.find("\"command\":\"" + command + "\""), std::string::npos)
+          << audited[0].request_json;
+    }
+    return final_body;
+  }
+
+  // The curve's end point (20 mm) reached.
+  void ExpectAtEnd(const std::string& drive) {
+    const v1::Drive end = WaitFor("drives/" + drive, [](const v1::Drive& d) {
+      return std::abs(d.status().position_mm() - 20) < 0.1;
+    });
+    EXPECT_NEAR(end.status().position_mm(), 20, 0.1) << end.ShortDebugString();
+  }
+
   // The audit entries of `action` (for `drive` when not empty), newest first.
   std::vector<storage::AuditRecord> Audit(const std::string& action,
                                           const std::string& drive = "") {
@@ -354,9 +382,10 @@ TEST_F(CurveSetsE2eTest, LinMotX1_DownloadAndRunPositionTimeCurve_DoneAtEndAudit
 }
 
 // STOBER s1: no curve storage on the drive, so DownloadCurve is the clear FailedPrecondition
-// mapping (decision 014). RunCurve streams the curve when the family's runner is in this build
-// (else the same mapping); the handle ends in a final state and the run is audited with it.
-TEST_F(CurveSetsE2eTest, StoberS1_DownloadUnsupportedRunAcceptedAndFinal) {
+// mapping (decision 014); RunCurve streams the curve as cyclic set points (decisions 1208+) and
+// ends DONE at its end point (or, under heavy load, ERROR naming the motion core's cause), audited
+// with its command.
+TEST_F(CurveSetsE2eTest, StoberS1_DownloadUnsupportedRunStreamedAudited) {
   ASSERT_FALSE(Field(CreateSet(), "etag").empty());
   auto no_store = HttpRequest(http(), "POST", "/v1/drives/s1:downloadCurve",
                               R"({"name": "e2e", "curve": "smooth", "linmot_curve_id": 7})");
@@ -365,36 +394,28 @@ TEST_F(CurveSetsE2eTest, StoberS1_DownloadUnsupportedRunAcceptedAndFinal) {
             std::string::npos)
       << no_store.body;
   EXPECT_NE(no_store.body.find("CURVE_OPERATION_UNSUPPORTED"), std::string::npos) << no_store.body;
-
-  MoveToStart("s1");
-  auto run = RunSmooth("s1");
-  auto runs = [&] { return Audit("RunCurve", "s1"); };
-  if (run.status != 200) {
-    EXPECT_EQ(run.status, 400) << run.body;
-    EXPECT_NE(run.body.find("does not support RunCurve"), std::string::npos) << run.body;
-    ASSERT_EQ(runs().size(), 1u);
-    return;
-  }
-  EXPECT_EQ(Field(run.body, "kind"), "RunCurve") << run.body;
-  const std::string command = Field(run.body, "name");
-  ASSERT_EQ(command.rfind("drives/s1/commands/", 0), 0u) << run.body;
-  const std::string final_body = WaitCommandFinal(command);
+  const std::string final_body = RunToFinal("s1");
   const std::string state = Field(final_body, "state");
-  std::cout << "s1 RunCurve ended " << state << ": " << final_body << "\n";
   if (state == "DONE") {
-    const v1::Drive end = WaitFor("drives/s1", [](const v1::Drive& d) {
-      return std::abs(d.status().position_mm() - 20) < 0.1;
-    });
-    EXPECT_NEAR(end.status().position_mm(), 20, 0.1) << end.ShortDebugString();
+    ExpectAtEnd("s1");
   } else {
-    // An ERROR names the drive's cause (e.g. the motion core's event).
+    // Under heavy load (ctest -j3 on 2 cores, parallel builds) the cyclic stream has been seen to
+    // miss set points longer than the extrapolation time I423: the motion core cancels with event
+    // 78 cause 3 (stober-motion.md line 849, manual L1344). That is the STOBER runner's business
+    // (decisions 1208+); here the API must report it as the drive's ERROR with the cause, not hang
+    // or lose it.
     EXPECT_EQ(state, "ERROR") << final_body;
-    EXPECT_FALSE(Field(final_body, "message").empty()) << final_body;
+    EXPECT_NE(final_body.find("motion core"), std::string::npos) << final_body;
   }
-  auto audited = runs();
-  ASSERT_EQ(audited.size(), 1u);
-  EXPECT_NE(audited[0].request_json.find("\"command\":\"" + command + "\""), std::string::npos)
-      << audited[0].request_json;
+}
+
+// Trinamic feeder-x (timed position-mode legs, decisions 1231+): the same curve to DONE; the
+// feeder's axis (40 mm/s, 190 mm/s²) is the tightest of the demo and the curve stays inside it.
+TEST_F(CurveSetsE2eTest, TrinamicFeederX_RunToDoneAudited) {
+  ASSERT_FALSE(Field(CreateSet(), "etag").empty());
+  const std::string final_body = RunToFinal("feeder-x");
+  EXPECT_EQ(Field(final_body, "state"), "DONE") << final_body;
+  ExpectAtEnd("feeder-x");
 }
 
 }  // namespace
