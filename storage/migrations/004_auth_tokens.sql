@@ -1,15 +1,17 @@
 -- 004_auth_tokens: API bearer tokens (issue 7 "Authentication and authorisation", decision 015).
 -- Timestamps as in 001: UTC ISO-8601 text with milliseconds, fixed width (24 characters).
--- The secret itself is never stored: only a random salt and SHA-256(salt || secret). The token
--- handed out once is "dgw_<id>_<secret>"; <id> finds the row, the hash proves the secret.
+-- The secret itself is never stored: only a random 16-byte salt and SHA-256(salt || secret),
+-- both as lower-case hex. The token handed out once is "dgw_<id>_<secret>"; <id> finds the row,
+-- the hash proves the secret.
 
 CREATE TABLE api_tokens (
   id          TEXT    PRIMARY KEY CHECK (length(id) BETWEEN 1 AND 32 AND id NOT GLOB '*[^0-9a-f]*'),
   name        TEXT    NOT NULL
               CHECK (length(name) BETWEEN 1 AND 128 AND name NOT GLOB '*[^A-Za-z0-9._-]*'),
   role        TEXT    NOT NULL CHECK (role IN ('viewer', 'operator', 'engineer', 'admin')),
-  salt        BLOB    NOT NULL CHECK (length(salt) = 16),
-  secret_hash BLOB    NOT NULL CHECK (length(secret_hash) = 32),
+  salt        TEXT    NOT NULL CHECK (length(salt) = 32 AND salt NOT GLOB '*[^0-9a-f]*'),
+  secret_hash TEXT    NOT NULL
+              CHECK (length(secret_hash) = 64 AND secret_hash NOT GLOB '*[^0-9a-f]*'),
   created_at  TEXT    NOT NULL CHECK (length(created_at) = 24),
   revoked_at  TEXT             CHECK (revoked_at IS NULL OR length(revoked_at) = 24),
   last_used   TEXT             CHECK (last_used IS NULL OR length(last_used) = 24)
