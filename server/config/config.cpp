@@ -20,6 +20,7 @@
 #include "absl/strings/str_join.h"
 #include "adapters/stober/factory.h"
 #include "adapters/trinamic/factory.h"
+#include "server/config/audit_config.h"
 #include "server/config/can_buses.h"
 #include "server/config/can_config.h"
 #include "server/config/section.h"
@@ -390,9 +391,10 @@ absl::StatusOr<GatewayConfig> ParseDocument(const YAML::Node& doc,
                                             std::span<const std::string_view> families) {
   GatewayConfig cfg;
   Errors errors;
-  const Section root(doc, "", {"listen", "data_dir", "drives", "tls"}, errors);
+  const Section root(doc, "", {"listen", "data_dir", "drives", "tls", "audit"}, errors);
   if (!doc.IsNull() && !doc.IsMap()) return errors.ToStatus();
   ParseListen(root, cfg.listen);
+  internal::ParseAudit(root, cfg.audit);
   if (root.String("data_dir", cfg.data_dir) && cfg.data_dir.empty()) {
     errors.Add("data_dir", "must not be empty", *root.Get("data_dir"));
   }

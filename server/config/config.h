@@ -10,6 +10,7 @@
 
 #include "absl/status/statusor.h"
 #include "adapters/core/drive_config.h"
+#include "server/config/audit_config.h"
 #include "server/config/tls_config.h"
 
 namespace drivegw::config {
@@ -33,6 +34,7 @@ struct GatewayConfig {
   std::string data_dir = "./data";
   std::vector<DriveConfig> drives;  // empty in demo mode; the server then uses DemoDrives()
   std::optional<TlsConfig> tls;     // HTTPS and gRPC over TLS when set (decision 023)
+  AuditConfig audit;                // audit trail size limit (decision 017)
   bool demo = true;                 // true when the config has no `drives:` key (or no file)
   std::string source_yaml;          // the text that was parsed, verbatim
 };
