@@ -1,4 +1,5 @@
-// Audit log: cached-statement appends, filtered newest-first queries, ISO-8601 timestamps.
+// Audit log: chained appends (genesis anchor, retention), filtered queries, ISO-8601 timestamps.
+// The chain, the anchors and the pruning path are decision 017.
 #include "storage/audit_log.h"
 
 #include <algorithm>
@@ -6,7 +7,11 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "adapters/core/log.h"
 #include "adapters/core/status.h"
+#include "nlohmann/json.hpp"
+#include "storage/audit_log_hash.h"
+#include "storage/audit_log_row.h"
 
 namespace drivegw::storage {
 namespace {
@@ -27,10 +32,36 @@ bool ParseDigits(std::string_view text, size_t pos, size_t count, int& out) {
   return true;
 }
 
-AuditRecord ReadRecord(const Statement& stmt) {
+// One scalar of a one-row SELECT; `fallback` when it returned no row or NULL.
+absl::StatusOr<int64_t> ScalarInt(Db& db, std::string_view sql, int64_t fallback,
+                                  std::string_view bind_text = {}) {
+  DGW_ASSIGN_OR_RETURN(Statement stmt, db.Prepare(sql));
+  if (!bind_text.empty()) DGW_RETURN_IF_ERROR(stmt.Bind(1, bind_text));
+  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+  if (!row || stmt.ColumnIsNull(0)) return fallback;
+  return stmt.ColumnInt64(0);
+}
+
+AuditEntry SystemEntry(system_clock::time_point time, std::string_view action,
+                       std::string request_json, std::string message) {
+  AuditEntry e;
+  e.time = time;
+  e.principal = std::string(AuditLog::kSystemPrincipal);
+  e.action = std::string(action);
+  e.request_json = std::move(request_json);
+  e.result_message = std::move(message);
+  return e;
+}
+
+}  // namespace
+
+namespace internal {
+
+AuditRecord ReadAuditRecord(const Statement& stmt) {
   AuditRecord r;
   r.id = stmt.ColumnInt64(0);
-  // Rows are only written by Append, so the text always parses; fall back to the epoch.
+  // Rows are only written by Append, so the text parses; a tampered one falls back to the
+  // epoch, which then fails its hash (the canonical form re-formats the time).
   r.time = ParseTimestamp(stmt.ColumnText(1)).value_or(system_clock::time_point{});
   r.principal = stmt.ColumnText(2);
   r.source_address = stmt.ColumnText(3);
@@ -39,10 +70,16 @@ AuditRecord ReadRecord(const Statement& stmt) {
   r.request_json = stmt.ColumnText(6);
   r.result_code = stmt.ColumnInt(7);
   r.result_message = stmt.ColumnText(8);
+  r.seq = stmt.ColumnIsNull(9) ? 0 : stmt.ColumnInt64(9);
+  r.role = stmt.ColumnText(10);
+  r.before_json = stmt.ColumnText(11);
+  r.after_json = stmt.ColumnText(12);
+  r.prev_hash = stmt.ColumnText(13);
+  r.hash = stmt.ColumnText(14);
   return r;
 }
 
-}  // namespace
+}  // namespace internal
 
 std::string FormatTimestamp(system_clock::time_point time) {
   using namespace std::chrono;
@@ -88,15 +125,51 @@ absl::StatusOr<system_clock::time_point> ParseTimestamp(std::string_view text) {
   return sys_days(ymd) + hours{h} + minutes{mi} + seconds{s} + milliseconds{frac};
 }
 
-absl::Status AuditLog::Append(const AuditEntry& entry) {
-  auto lock = db_->Lock();
+absl::Status AuditLog::SetRetention(const AuditRetention& r) {
+  if (r.max_entries != 0 && r.max_entries < AuditRetention::kMinEntries) {
+    return absl::InvalidArgumentError(absl::StrCat("audit.max_entries: ", r.max_entries,
+                                                   " is below ", AuditRetention::kMinEntries,
+                                                   " (0 = unlimited)"));
+  }
+  if (r.warn_at_percent < 1 || r.warn_at_percent > 100) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("audit.warn_at_percent: ", r.warn_at_percent, " is outside 1..100"));
+  }
+  if (r.prune_to_percent < 1 || r.prune_to_percent >= r.warn_at_percent) {
+    return absl::InvalidArgumentError(absl::StrCat("audit.prune_to_percent: ", r.prune_to_percent,
+                                                   " must be 1..", r.warn_at_percent - 1,
+                                                   " (below warn_at_percent)"));
+  }
+  std::lock_guard lock(mu_);
+  retention_ = r;
+  return absl::OkStatus();
+}
+
+absl::StatusOr<AuditLog::Head> AuditLog::ReadHeadLocked() {
+  DGW_ASSIGN_OR_RETURN(
+      Statement stmt,
+      db_->Prepare("SELECT seq, hash FROM audit_log WHERE seq = (SELECT MAX(seq) FROM audit_log)"));
+  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+  Head head;
+  if (row) {
+    head.seq = stmt.ColumnInt64(0);
+    head.hash = stmt.ColumnText(1);
+  }
+  return head;
+}
+
+absl::StatusOr<int64_t> AuditLog::InsertLocked(const AuditEntry& entry, Head& head) {
   if (!insert_.valid()) {
     DGW_ASSIGN_OR_RETURN(
         insert_,
         db_->Prepare("INSERT INTO audit_log (ts, principal, source_address, drive, action, "
-                     "request_json, result_code, result_message) "
-                     "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)"));
+                     "request_json, result_code, result_message, seq, role, before_json, "
+                     "after_json, prev_hash, hash) "
+                     "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14)"));
   }
+  const int64_t seq = head.seq + 1;
+  const std::string prev = head.seq == 0 ? std::string(kGenesisPrevHash) : head.hash;
+  std::string hash = AuditEntryHash(seq, entry, prev);
   absl::Status status = [&]() -> absl::Status {
     DGW_RETURN_IF_ERROR(insert_.Bind(1, FormatTimestamp(entry.time)));
     DGW_RETURN_IF_ERROR(insert_.Bind(2, std::string_view(entry.principal)));
@@ -106,11 +179,149 @@ absl::Status AuditLog::Append(const AuditEntry& entry) {
     DGW_RETURN_IF_ERROR(insert_.Bind(6, std::string_view(entry.request_json)));
     DGW_RETURN_IF_ERROR(insert_.Bind(7, entry.result_code));
     DGW_RETURN_IF_ERROR(insert_.Bind(8, std::string_view(entry.result_message)));
+    DGW_RETURN_IF_ERROR(insert_.Bind(9, seq));
+    DGW_RETURN_IF_ERROR(insert_.Bind(10, std::string_view(entry.role)));
+    DGW_RETURN_IF_ERROR(insert_.Bind(11, std::string_view(entry.before_json)));
+    DGW_RETURN_IF_ERROR(insert_.Bind(12, std::string_view(entry.after_json)));
+    DGW_RETURN_IF_ERROR(insert_.Bind(13, std::string_view(prev)));
+    DGW_RETURN_IF_ERROR(insert_.Bind(14, std::string_view(hash)));
     return insert_.Run();
   }();
   // Reset also drops the bound copies of request_json; keep the statement either way.
   insert_.Reset().IgnoreError();
-  return status;
+  DGW_RETURN_IF_ERROR(status);
+  head.seq = seq;
+  head.hash = std::move(hash);
+  return db_->LastInsertRowId();
+}
+
+absl::Status AuditLog::WriteGenesisLocked(system_clock::time_point time, Head& head) {
+  // Rows from before migration 005 stay as they are (SQL cannot hash them and rewriting them
+  // would need the update guard off); the genesis anchor fixes their number and a digest over
+  // their canonical forms (seq 0, prev_hash ""), so a later change is still detected.
+  DGW_ASSIGN_OR_RETURN(Statement stmt,
+                       db_->Prepare(absl::StrCat("SELECT ", internal::kAuditColumns,
+                                                 " FROM audit_log WHERE seq IS NULL ORDER BY id")));
+  Sha256 digest;
+  int64_t rows = 0, last_id = 0;
+  while (true) {
+    DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+    if (!row) break;
+    const AuditRecord r = internal::ReadAuditRecord(stmt);
+    digest.Update(CanonicalAuditForm(0, r, ""));
+    ++rows;
+    last_id = r.id;
+  }
+  const nlohmann::json request = {
+      {"legacy_rows", rows}, {"legacy_last_id", last_id}, {"legacy_digest", digest.HexDigest()}};
+  return InsertLocked(SystemEntry(time, kGenesisAction, request.dump(),
+                                  "hash chain starts here (decision 017)"),
+                      head)
+      .status();
+}
+
+absl::StatusOr<int64_t> AuditLog::CountLocked() {
+  // Chained rows are contiguous in seq (pruning removes the oldest), so MIN/MAX on the index
+  // count them without a scan; legacy rows only ever shrink.
+  DGW_ASSIGN_OR_RETURN(const int64_t legacy,
+                       ScalarInt(*db_, "SELECT COUNT(*) FROM audit_log WHERE seq IS NULL", 0));
+  DGW_ASSIGN_OR_RETURN(
+      const int64_t chained,
+      ScalarInt(*db_, "SELECT MAX(seq) - MIN(seq) + 1 FROM audit_log WHERE seq IS NOT NULL", 0));
+  return legacy + chained;
+}
+
+absl::Status AuditLog::ApplyRetentionLocked(const AuditRetention& r, system_clock::time_point time,
+                                            Head& head, std::vector<std::string>& warnings) {
+  DGW_ASSIGN_OR_RETURN(const int64_t count, CountLocked());
+  if (count >= r.max_entries) {
+    // Prune so that, with the anchor, prune_to_percent of the limit remain (at least the
+    // entry just appended and the anchor).
+    const int64_t target = std::max<int64_t>(2, r.max_entries * r.prune_to_percent / 100);
+    const int64_t remove = count - target + 1;
+    DGW_ASSIGN_OR_RETURN(Statement cut,
+                         db_->Prepare("SELECT id FROM audit_log ORDER BY id LIMIT 1 OFFSET ?1"));
+    DGW_RETURN_IF_ERROR(cut.Bind(1, remove - 1));
+    DGW_ASSIGN_OR_RETURN(const bool has_cut, cut.Step());
+    if (!has_cut) return absl::InternalError("audit: retention found fewer rows than counted");
+    const int64_t cut_id = cut.ColumnInt64(0);
+    DGW_ASSIGN_OR_RETURN(Statement last,
+                         db_->Prepare("SELECT seq, hash FROM audit_log WHERE id <= ?1 AND seq IS "
+                                      "NOT NULL ORDER BY seq DESC LIMIT 1"));
+    DGW_RETURN_IF_ERROR(last.Bind(1, cut_id));
+    DGW_ASSIGN_OR_RETURN(const bool has_chained, last.Step());
+    const int64_t pruned_through = has_chained ? last.ColumnInt64(0) : 0;
+    const std::string last_hash = has_chained ? last.ColumnText(1) : "";
+    // The one privileged path: the guard row lets audit_log_no_delete pass, inside this
+    // transaction only (migration 005).
+    DGW_RETURN_IF_ERROR(db_->Exec("INSERT INTO audit_prune_guard (id) VALUES (1)"));
+    DGW_ASSIGN_OR_RETURN(Statement del, db_->Prepare("DELETE FROM audit_log WHERE id <= ?1"));
+    DGW_RETURN_IF_ERROR(del.Bind(1, cut_id));
+    absl::Status deleted = del.Run();
+    DGW_RETURN_IF_ERROR(db_->Exec("DELETE FROM audit_prune_guard"));
+    DGW_RETURN_IF_ERROR(deleted);
+    const nlohmann::json request = {
+        {"pruned_rows", remove},         {"pruned_through_seq", pruned_through},
+        {"last_pruned_hash", last_hash}, {"first_kept_seq", pruned_through + 1},
+        {"max_entries", r.max_entries},  {"prune_to_percent", r.prune_to_percent}};
+    std::string message = absl::StrCat("retention: removed the ", remove,
+                                       " oldest entries (max_entries ", r.max_entries, ")");
+    DGW_RETURN_IF_ERROR(
+        InsertLocked(SystemEntry(time, kPrunedAction, request.dump(), message), head).status());
+    warnings.push_back(std::move(message));
+    return absl::OkStatus();
+  }
+  const int64_t warn_at = (r.max_entries * r.warn_at_percent + 99) / 100;
+  if (count < warn_at) return absl::OkStatus();
+  // One warning per fill-up: none since the last prune (index on (action, id)).
+  constexpr char kLastOf[] = "SELECT MAX(id) FROM audit_log WHERE action = ?1";
+  DGW_ASSIGN_OR_RETURN(const int64_t warned, ScalarInt(*db_, kLastOf, 0, kWarningAction));
+  DGW_ASSIGN_OR_RETURN(const int64_t pruned, ScalarInt(*db_, kLastOf, 0, kPrunedAction));
+  if (warned > pruned) return absl::OkStatus();
+  const nlohmann::json request = {
+      {"entries", count}, {"max_entries", r.max_entries}, {"warn_at_percent", r.warn_at_percent}};
+  std::string message = absl::StrCat("retention: ", count, " of max_entries ", r.max_entries,
+                                     " entries; the oldest are pruned when the limit is reached");
+  DGW_RETURN_IF_ERROR(
+      InsertLocked(SystemEntry(time, kWarningAction, request.dump(), message), head).status());
+  warnings.push_back(std::move(message));
+  return absl::OkStatus();
+}
+
+absl::Status AuditLog::Append(const AuditEntry& entry) {
+  AuditRetention retention;
+  {
+    std::lock_guard lock(mu_);
+    retention = retention_;
+  }
+  std::vector<std::string> warnings;
+  int64_t last_id = 0;
+  absl::Status status = db_->Transaction([&]() -> absl::Status {
+    warnings.clear();
+    DGW_ASSIGN_OR_RETURN(Head head, ReadHeadLocked());
+    if (head.seq == 0) DGW_RETURN_IF_ERROR(WriteGenesisLocked(entry.time, head));
+    DGW_RETURN_IF_ERROR(InsertLocked(entry, head).status());
+    if (retention.max_entries > 0) {
+      DGW_RETURN_IF_ERROR(ApplyRetentionLocked(retention, entry.time, head, warnings));
+    }
+    last_id = db_->LastInsertRowId();
+    return absl::OkStatus();
+  });
+  if (!status.ok()) return status;
+  for (const std::string& w : warnings) {
+    log::Warn("audit_retention", log::Fields().Add("message", w));
+  }
+  {
+    std::lock_guard lock(mu_);
+    last_id_ = std::max(last_id_, last_id);
+  }
+  appended_.notify_all();
+  return absl::OkStatus();
+}
+
+void AuditLog::WaitForAppend(int64_t after_id, std::chrono::steady_clock::time_point deadline) {
+  std::unique_lock lock(mu_);
+  appended_.wait_until(lock, deadline, [&] { return last_id_ > after_id; });
 }
 
 absl::StatusOr<std::vector<AuditRecord>> AuditLog::Query(const AuditQuery& query) {
@@ -119,51 +330,52 @@ absl::StatusOr<std::vector<AuditRecord>> AuditLog::Query(const AuditQuery& query
         absl::StrCat("audit_query.limit: ", query.limit, " is outside 0..", AuditQuery::kMaxLimit));
   }
   const int limit = query.limit == 0 ? kDefaultLimit : query.limit;
-  std::string sql =
-      "SELECT id, ts, principal, source_address, drive, action, request_json, result_code, "
-      "result_message FROM audit_log";
+  std::string sql = absl::StrCat("SELECT ", internal::kAuditColumns, " FROM audit_log");
   const char* glue = " WHERE ";
   int next = 1;
-  int drive_index = 0, action_index = 0, since_index = 0, before_index = 0;
-  if (query.drive) {
-    absl::StrAppend(&sql, glue, "drive = ?", drive_index = next++);
+  auto add = [&](const char* condition) {
+    absl::StrAppend(&sql, glue, condition, next);
     glue = " AND ";
-  }
-  if (query.action) {
-    absl::StrAppend(&sql, glue, "action = ?", action_index = next++);
-    glue = " AND ";
-  }
-  if (query.since) {
-    absl::StrAppend(&sql, glue, "ts >= ?", since_index = next++);
-    glue = " AND ";
-  }
-  if (query.before_id) {
-    absl::StrAppend(&sql, glue, "id < ?", before_index = next++);
-  }
-  absl::StrAppend(&sql, " ORDER BY id DESC LIMIT ?", next);
+    return next++;
+  };
+  const int drive_index = query.drive ? add("drive = ?") : 0;
+  const int action_index = query.action ? add("action = ?") : 0;
+  const int principal_index = query.principal ? add("principal = ?") : 0;
+  const int since_index = query.since ? add("ts >= ?") : 0;
+  const int until_index = query.until ? add("ts < ?") : 0;
+  const int before_index = query.before_id ? add("id < ?") : 0;
+  const int after_index = query.after_id ? add("id > ?") : 0;
+  absl::StrAppend(&sql, " ORDER BY id ", query.ascending ? "ASC" : "DESC", " LIMIT ?", next);
 
   auto lock = db_->Lock();
   DGW_ASSIGN_OR_RETURN(Statement stmt, db_->Prepare(sql));
   if (drive_index) DGW_RETURN_IF_ERROR(stmt.Bind(drive_index, std::string_view(*query.drive)));
   if (action_index) DGW_RETURN_IF_ERROR(stmt.Bind(action_index, std::string_view(*query.action)));
+  if (principal_index) {
+    DGW_RETURN_IF_ERROR(stmt.Bind(principal_index, std::string_view(*query.principal)));
+  }
   if (since_index) DGW_RETURN_IF_ERROR(stmt.Bind(since_index, FormatTimestamp(*query.since)));
+  if (until_index) DGW_RETURN_IF_ERROR(stmt.Bind(until_index, FormatTimestamp(*query.until)));
   if (before_index) DGW_RETURN_IF_ERROR(stmt.Bind(before_index, *query.before_id));
+  if (after_index) DGW_RETURN_IF_ERROR(stmt.Bind(after_index, *query.after_id));
   DGW_RETURN_IF_ERROR(stmt.Bind(next, limit));
   std::vector<AuditRecord> out;
   while (true) {
     DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
     if (!row) break;
-    out.push_back(ReadRecord(stmt));
+    out.push_back(internal::ReadAuditRecord(stmt));
   }
   return out;
 }
 
 absl::StatusOr<int64_t> AuditLog::Count() {
   auto lock = db_->Lock();
-  DGW_ASSIGN_OR_RETURN(Statement stmt, db_->Prepare("SELECT COUNT(*) FROM audit_log"));
-  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
-  if (!row) return absl::InternalError("storage: SELECT COUNT(*) returned no row");
-  return stmt.ColumnInt64(0);
+  return ScalarInt(*db_, "SELECT COUNT(*) FROM audit_log", 0);
+}
+
+absl::StatusOr<int64_t> AuditLog::LastId() {
+  auto lock = db_->Lock();
+  return ScalarInt(*db_, "SELECT MAX(id) FROM audit_log", 0);
 }
 
 }  // namespace drivegw::storage

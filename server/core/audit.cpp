@@ -17,23 +17,31 @@ std::string ToAuditJson(const google::protobuf::Message& m) {
   return out;
 }
 
-void WriteAudit(storage::AuditLog* audit, const CallContext& c, const std::string& drive,
-                const std::string& action, const std::string& request_json,
-                const absl::Status& result) {
+void WriteAudit(storage::AuditLog* audit, const CallContext& c, const AuditWrite& w) {
   if (audit == nullptr) return;
   storage::AuditEntry e;
   e.time = std::chrono::system_clock::now();
   e.principal = c.principal;
+  e.role = c.role;
   e.source_address = c.source_address;
-  e.drive = drive;
-  e.action = action;
-  e.request_json = request_json;
-  e.result_code = static_cast<int>(result.code());
-  e.result_message = std::string(result.message());
+  e.drive = w.drive;
+  e.action = w.action;
+  e.request_json = w.request_json;
+  e.result_code = static_cast<int>(w.result.code());
+  e.result_message = w.message.empty() ? std::string(w.result.message()) : w.message;
+  e.before_json = w.before_json;
+  e.after_json = w.after_json;
   if (absl::Status s = audit->Append(e); !s.ok()) {
-    log::Error("audit_append_failed",
-               log::Fields().Add("drive", drive).Add("action", action).Add("error", s.message()));
+    log::Error(
+        "audit_append_failed",
+        log::Fields().Add("drive", w.drive).Add("action", w.action).Add("error", s.message()));
   }
+}
+
+void WriteAudit(storage::AuditLog* audit, const CallContext& c, const std::string& drive,
+                const std::string& action, const std::string& request_json,
+                const absl::Status& result) {
+  WriteAudit(audit, c, AuditWrite{drive, action, request_json, result, "", "", ""});
 }
 
 }  // namespace drivegw::server

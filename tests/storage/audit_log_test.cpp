@@ -56,7 +56,7 @@ TEST_F(AuditLogTest, Append_ThenQuery_RoundTripsEveryField) {
   ASSERT_TRUE(log_->Append(e).ok());
   auto records = log_->Query({});
   ASSERT_TRUE(records.ok()) << records.status();
-  ASSERT_EQ(records->size(), 1u);
+  ASSERT_EQ(records->size(), 2u);  // and the chain's genesis anchor before it (decision 017)
   const AuditRecord& r = records->front();
   EXPECT_GT(r.id, 0);
   EXPECT_EQ(r.time, e.time);
@@ -71,7 +71,7 @@ TEST_F(AuditLogTest, Append_ThenQuery_RoundTripsEveryField) {
 
 TEST_F(AuditLogTest, Append_StoresUtcIsoTimestampWithMilliseconds) {
   ASSERT_TRUE(log_->Append(Entry("x1", "Enable", kT0 + std::chrono::microseconds(45678))).ok());
-  auto stmt = db_->Prepare("SELECT ts FROM audit_log");
+  auto stmt = db_->Prepare("SELECT ts FROM audit_log WHERE action = 'Enable'");
   ASSERT_TRUE(stmt.ok() && *stmt->Step());
   EXPECT_EQ(stmt->ColumnText(0), "2024-05-01T12:00:00.045Z");
 }
@@ -92,14 +92,16 @@ TEST_F(AuditLogTest, Delete_RejectedByTrigger) {
   absl::Status s = db_->Exec("DELETE FROM audit_log WHERE drive = 'x1'");
   EXPECT_EQ(s.code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(s.message(), HasSubstr("audit_log is append-only"));
-  EXPECT_EQ(*log_->Count(), 2);
+  EXPECT_EQ(*log_->Count(), 3);  // with the genesis anchor
 }
 
 TEST_F(AuditLogTest, Query_NoFilter_NewestFirst) {
   for (int i = 0; i < 5; ++i) {
     ASSERT_TRUE(log_->Append(Entry("x1", absl::StrCat("a", i), kT0 + milliseconds(i))).ok());
   }
-  auto records = log_->Query({});
+  AuditQuery q;
+  q.principal = "alice";  // not the genesis anchor
+  auto records = log_->Query(q);
   ASSERT_TRUE(records.ok());
   ASSERT_EQ(records->size(), 5u);
   for (int i = 0; i < 5; ++i) EXPECT_EQ((*records)[i].action, absl::StrCat("a", 4 - i));
@@ -152,6 +154,7 @@ TEST_F(AuditLogTest, Query_FilterByDriveActionSince_CombinesWithAnd) {
 TEST_F(AuditLogTest, Query_LimitAndBeforeId_PageBackwards) {
   for (int i = 0; i < 25; ++i) ASSERT_TRUE(log_->Append(Entry("x1", "Poll", kT0)).ok());
   AuditQuery q;
+  q.drive = "x1";
   q.limit = 10;
   std::vector<int64_t> seen;
   while (true) {
@@ -170,6 +173,7 @@ TEST_F(AuditLogTest, Query_LimitAndBeforeId_PageBackwards) {
 TEST_F(AuditLogTest, Query_LimitBounds_ZeroMeansDefaultAndAboveMaxIsRejected) {
   for (int i = 0; i < 150; ++i) ASSERT_TRUE(log_->Append(Entry("x1", "Poll", kT0)).ok());
   AuditQuery q;
+  q.drive = "x1";
   q.limit = 0;
   auto r = log_->Query(q);
   ASSERT_TRUE(r.ok());
@@ -205,7 +209,7 @@ TEST_F(AuditLogTest, Append_FourThreadsConcurrently_LosesNothing) {
   }
   for (auto& th : threads) th.join();
   EXPECT_EQ(failures.load(), 0);
-  EXPECT_EQ(*log_->Count(), kThreads * kPerThread);
+  EXPECT_EQ(*log_->Count(), kThreads * kPerThread + 1);  // with the genesis anchor
   for (int t = 0; t < kThreads; ++t) {
     AuditQuery q;
     q.drive = absl::StrCat("t", t);
@@ -225,7 +229,7 @@ TEST_F(AuditLogTest, Append_SurvivesReopen) {
   auto db = Db::Open(dir_.File("audit.db"));
   ASSERT_TRUE(db.ok());
   AuditLog log(*db);
-  EXPECT_EQ(*log.Count(), 1);
+  EXPECT_EQ(*log.Count(), 2);  // with the genesis anchor
 }
 
 TEST(TimestampTest, Format_FixedWidthUtcWithMilliseconds) {

@@ -1,0 +1,66 @@
+// Drive-side events into the audit trail (issue 7 "Audit trail"): faults with the drive's own
+// code and text, warnings, OFFLINE/ONLINE transitions and homing done, each an entry with
+// principal "drive:<name>" (decision 017).
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "adapters/core/drive.h"
+
+namespace drivegw::storage {
+class AuditLog;
+}
+
+namespace drivegw::server {
+
+// One event found by comparing two published snapshots.
+struct DriveEvent {
+  std::string action;  // "drive.fault", "drive.fault_cleared", "drive.warning",
+                       // "drive.warning_cleared", "drive.offline", "drive.online", "drive.homed"
+  std::string request_json;  // the drive's own data (fault code and text, warnings, warn word)
+  std::string message;
+  std::string before_json;  // {"state": ...} where the state changed
+  std::string after_json;
+};
+
+// The events between `before` and `after` (pure; the recorder and its tests share it).
+std::vector<DriveEvent> DriveEventsBetween(const DriveStatus& before, const DriveStatus& after);
+
+class DriveEventRecorder {
+ public:
+  // Recorded per drive and window before further events are only counted (a flapping link must
+  // not flood the log); the count is written as "drive.events_suppressed" when the window ends.
+  static constexpr int kMaxEventsPerWindow = 20;
+  static constexpr std::chrono::seconds kWindow{10};
+
+  // Starts one watcher thread per drive; each sleeps in Drive::WaitForStatus between
+  // snapshots. `audit` (not null) must outlive the recorder; drives stay alive through the
+  // shared pointers. Drives start OFFLINE, so the first snapshot with a link is "drive.online".
+  DriveEventRecorder(std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit);
+  ~DriveEventRecorder();
+  DriveEventRecorder(const DriveEventRecorder&) = delete;
+  DriveEventRecorder& operator=(const DriveEventRecorder&) = delete;
+
+  // Ends the threads (each within one wait slice); idempotent.
+  void Stop();
+
+ private:
+  void Watch(const std::shared_ptr<Drive>& drive);
+  // Waits up to `d` unless Stop() comes first; false once stopped.
+  bool Sleep(std::chrono::milliseconds d);
+
+  storage::AuditLog* audit_;
+  std::atomic<bool> stop_{false};
+  std::mutex mu_;
+  std::condition_variable stopped_;
+  std::vector<std::thread> threads_;
+};
+
+}  // namespace drivegw::server
