@@ -16,6 +16,9 @@ struct CallContext {
   // Client-chosen key of a mutating call (gRPC metadata / HTTP header `idempotency-key`): a retry
   // with the same key returns the first result (issue 7). "" = none.
   std::string idempotency_key;
+  // Control lease id the caller presents (gRPC metadata `x-drivegw-lease`, HTTP header
+  // `X-Drivegw-Lease`): proves holding a drive's lease, decision 019. "" = none.
+  std::string lease_id;
 };
 
 }  // namespace drivegw::server

@@ -196,8 +196,8 @@ absl::Status ViolationsStatus(const std::vector<v1::CurveViolation>& violations,
 
 CurveSetServiceCore::CurveSetServiceCore(storage::CurveSetRepo& repo,
                                          std::vector<std::shared_ptr<Drive>> drives,
-                                         storage::AuditLog* audit)
-    : repo_(repo), drives_(std::move(drives)), audit_(audit) {
+                                         storage::AuditLog* audit, const LeaseManager* leases)
+    : repo_(repo), drives_(std::move(drives)), audit_(audit), leases_(leases) {
   for (const auto& d : drives_) by_name_[d->config().name] = d.get();
 }
 
@@ -434,6 +434,7 @@ absl::StatusOr<v1::DownloadCurveResponse> CurveSetServiceCore::DownloadCurve(
   if (!drive.ok()) return done(drive.status());
   Drive& d = **drive;
   drive_name = d.config().name;
+  if (auto s = CheckLease(leases_, drive_name, c); !s.ok()) return done(s);  // decision 019
   auto name = CurveSetId("name", r.name());
   if (!name.ok()) return done(name.status());
   int version = 0;
@@ -497,6 +498,7 @@ absl::StatusOr<v1::CommandHandle> CurveSetServiceCore::RunCurve(const v1::RunCur
   if (!drive.ok()) return done(drive.status());
   Drive& d = **drive;
   drive_name = d.config().name;
+  if (auto s = CheckLease(leases_, drive_name, c); !s.ok()) return done(s);  // decision 019
   auto name = CurveSetId("name", r.name());
   if (!name.ok()) return done(name.status());
   CurveRunOptions options;

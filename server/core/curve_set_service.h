@@ -15,6 +15,7 @@
 #include "adapters/core/drive.h"
 #include "drivegw/v1/curve_sets.pb.h"
 #include "server/core/call_context.h"
+#include "server/core/lease_manager.h"
 #include "storage/curve_set_repo.h"
 
 namespace drivegw::storage {
@@ -25,9 +26,10 @@ namespace drivegw::server {
 
 class CurveSetServiceCore {
  public:
-  // `repo` must outlive the core; `audit` may be null (tests without storage).
+  // `repo` must outlive the core; `audit` may be null (tests without storage); `leases` (may be
+  // null: none) is checked before DownloadCurve and RunCurve touch a drive (decision 019).
   CurveSetServiceCore(storage::CurveSetRepo& repo, std::vector<std::shared_ptr<Drive>> drives,
-                      storage::AuditLog* audit);
+                      storage::AuditLog* audit, const LeaseManager* leases = nullptr);
 
   absl::StatusOr<v1::CurveSet> CreateCurveSet(const v1::CreateCurveSetRequest& r,
                                               const CallContext& c);
@@ -65,6 +67,7 @@ class CurveSetServiceCore {
   std::vector<std::shared_ptr<Drive>> drives_;
   std::map<std::string, Drive*> by_name_;
   storage::AuditLog* audit_;
+  const LeaseManager* leases_;
 };
 
 // "curveSets/x" or "x" -> "x"; InvalidArgument naming `field` otherwise.

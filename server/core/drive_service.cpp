@@ -33,8 +33,8 @@ std::string ContentKey(v1::DriveStatus s) {
 }  // namespace
 
 DriveServiceCore::DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives,
-                                   storage::AuditLog* audit)
-    : drives_(std::move(drives)), audit_(audit) {
+                                   storage::AuditLog* audit, const LeaseManager* leases)
+    : drives_(std::move(drives)), audit_(audit), leases_(leases) {
   for (const auto& d : drives_) by_name_[d->config().name] = d.get();
 }
 
@@ -66,8 +66,14 @@ absl::StatusOr<v1::CommandHandle> DriveServiceCore::RunCommand(
   absl::StatusOr<Drive*> drive = Find("name", r.name());
   absl::StatusOr<v1::CommandHandle> out;
   std::string drive_name = drive.ok() ? (*drive)->config().name : r.name();
+  // Stop stays open to everybody while a drive is leased: stopping an axis is never refused
+  // (decision 019).
+  absl::Status leased =
+      std::string_view(action) == "Stop" ? absl::OkStatus() : CheckLease(leases_, drive_name, c);
   if (!drive.ok()) {
     out = drive.status();
+  } else if (!leased.ok()) {
+    out = leased;
   } else {
     absl::StatusOr<CommandInfo> info = op(**drive);
     if (info.ok()) {
@@ -180,6 +186,7 @@ absl::StatusOr<v1::MoveCoordinatedResponse> DriveServiceCore::MoveCoordinated(
                                 ") a ", group[0]->config().family,
                                 " drive; a coordinated move runs on one controller"));
       }
+      if (auto s = CheckLease(leases_, cfg.name, c); !s.ok()) return s;
       group.push_back(*d);
       axes.push_back(cfg.axis);
     }
@@ -256,6 +263,8 @@ absl::StatusOr<v1::Parameter> DriveServiceCore::WriteParameter(const v1::WritePa
                                           r.parameter_id());
              !s.ok()) {
     out = s;
+  } else if (auto leased = CheckLease(leases_, drive_name, c); !leased.ok()) {
+    out = leased;
   } else if (auto w = (*drive)->WriteParameter(ParameterRef{r.parameter_id(), r.rom()}, r.value());
              !w.ok()) {
     out = w;
@@ -280,6 +289,8 @@ absl::StatusOr<v1::NativeCommandResponse> DriveServiceCore::SendNativeCommand(
     out = drive.status();
   } else if (auto fam = ValidateNativeFamily(r, (*drive)->config().family); !fam.ok()) {
     out = fam;
+  } else if (auto leased = CheckLease(leases_, drive_name, c); !leased.ok()) {
+    out = leased;
   } else if (auto tr = ValidateNativeTransport(r, (*drive)->config()); !tr.ok()) {
     out = tr;
   } else if (auto req = ValidateNative(r); !req.ok()) {
@@ -319,6 +330,7 @@ absl::StatusOr<std::unique_ptr<CyclicSetpointStream>> DriveServiceCore::StartCyc
       if (!sp.ok()) return sp.status();
     }
     if (shutting_down_.load()) return absl::UnavailableError("the gateway is shutting down");
+    if (auto s = CheckLease(leases_, drive_name, c); !s.ok()) return s;
     auto started = (*drive)->StartCyclic(*mode);
     if (!started.ok()) return started.status();
     if (*started == nullptr) {

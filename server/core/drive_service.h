@@ -14,6 +14,7 @@
 #include "drivegw/v1/drive.pb.h"
 #include "server/core/call_context.h"
 #include "server/core/cyclic_stream.h"
+#include "server/core/lease_manager.h"
 
 namespace drivegw::storage {
 class AuditLog;
@@ -24,7 +25,9 @@ namespace drivegw::server {
 class DriveServiceCore {
  public:
   // `audit` may be null (tests without storage); drives keep their order for ListDrives.
-  DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit);
+  // `leases` (may be null: none) is checked before every mutating drive access (decision 019).
+  DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit,
+                   const LeaseManager* leases = nullptr);
 
   absl::StatusOr<v1::ListDrivesResponse> ListDrives(const v1::ListDrivesRequest& r,
                                                     const CallContext& c);
@@ -88,6 +91,7 @@ class DriveServiceCore {
   std::vector<std::shared_ptr<Drive>> drives_;
   std::map<std::string, Drive*> by_name_;
   storage::AuditLog* audit_;
+  const LeaseManager* leases_;
   std::atomic<bool> shutting_down_{false};
 };
 

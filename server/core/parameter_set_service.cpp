@@ -137,12 +137,14 @@ ParameterSetServiceCore::ParameterSetServiceCore(storage::ParameterSetRepo& repo
                                                  ParameterApplier& applier,
                                                  const CatalogueList& catalogues,
                                                  std::vector<std::shared_ptr<Drive>> drives,
-                                                 storage::AuditLog* audit)
+                                                 storage::AuditLog* audit,
+                                                 const LeaseManager* leases)
     : repo_(repo),
       applier_(applier),
       catalogues_(catalogues),
       drives_(std::move(drives)),
-      audit_(audit) {
+      audit_(audit),
+      leases_(leases) {
   for (const auto& d : drives_) by_name_[d->config().name] = d.get();
 }
 
@@ -540,6 +542,10 @@ absl::StatusOr<v1::Operation> ParameterSetServiceCore::ApplyParameterSet(
       return fail(FieldError(absl::StrCat("drives[", i, "]"),
                              absl::StrCat("is a ", (*d)->config().family, " drive; set '", *name,
                                           "' is for ", set->family)));
+    }
+    // A dry run only reads; writes need the lease (decision 019).
+    if (!r.dry_run()) {
+      if (auto s = CheckLease(leases_, (*d)->config().name, c); !s.ok()) return fail(s);
     }
     req.drives.push_back(*d);
     absl::StrAppend(&drive_names, drive_names.empty() ? "" : ",", (*d)->config().name);

@@ -14,6 +14,7 @@
 #include "adapters/core/parameter_catalogue.h"
 #include "drivegw/v1/parameter_sets.pb.h"
 #include "server/core/call_context.h"
+#include "server/core/lease_manager.h"
 #include "server/core/parameter_apply.h"
 #include "storage/parameter_set_repo.h"
 
@@ -28,7 +29,8 @@ class ParameterSetServiceCore {
   // Every reference must outlive the core; `audit` may be null (tests without storage).
   ParameterSetServiceCore(storage::ParameterSetRepo& repo, ParameterApplier& applier,
                           const CatalogueList& catalogues,
-                          std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit);
+                          std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit,
+                          const LeaseManager* leases = nullptr);
 
   absl::StatusOr<v1::ListParameterDefinitionsResponse> ListParameterDefinitions(
       const v1::ListParameterDefinitionsRequest& r, const CallContext& c);
@@ -87,6 +89,7 @@ class ParameterSetServiceCore {
   std::vector<std::shared_ptr<Drive>> drives_;
   std::map<std::string, Drive*> by_name_;
   storage::AuditLog* audit_;
+  const LeaseManager* leases_;  // may be null; checked before an apply writes (decision 019)
 };
 
 // "parameterSets/x" or "x" -> "x"; InvalidArgument naming `field` otherwise.
