@@ -19,7 +19,10 @@
 #include "adapters/trinamic/factory.h"
 #include "server/core/curve_set_service.h"
 #include "server/core/parameter_apply.h"
+#include "server/core/audit_service.h"
+#include "server/core/drive_event_recorder.h"
 #include "server/core/parameter_set_service.h"
+#include "server/grpc/audit_service_grpc.h"
 #include "server/grpc/curve_set_service_grpc.h"
 #include "server/grpc/drive_service_grpc.h"
 #include "server/grpc/parameter_set_service_grpc.h"
@@ -116,6 +119,11 @@ struct Gateway::Impl {
   std::unique_ptr<sim::trinamic::TrinamicServer> trinamic_sim;
   std::unique_ptr<sim::stober::AxisServer> stober_sim;
   std::vector<std::shared_ptr<Drive>> drives;
+  // Audit trail (issue 7, decision 017): drive-side events and AuditService; after the drives and
+  // the audit log they use, so destroyed before them.
+  std::unique_ptr<DriveEventRecorder> drive_events;
+  std::unique_ptr<AuditServiceCore> audit_core;
+  std::unique_ptr<AuditServiceGrpc> audit_service;
   std::unique_ptr<DriveServiceCore> core;
   std::unique_ptr<WorkerPool> pool;
   std::unique_ptr<DriveServiceGrpc> service;
@@ -164,6 +172,8 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   impl->db = std::make_unique<storage::Db>(std::move(db));
   DGW_RETURN_IF_ERROR(storage::Migrate(*impl->db));
   impl->audit = std::make_unique<storage::AuditLog>(*impl->db);
+  DGW_RETURN_IF_ERROR(impl->audit->SetRetention(
+      {cfg.audit.max_entries, cfg.audit.warn_at_percent, cfg.audit.prune_to_percent}));
 
   // Demo mode: embedded simulated drives on loopback, and drive configs pointing at them.
   std::vector<DriveConfig> drive_configs = cfg.drives;
@@ -265,6 +275,9 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   impl->curve_set_service =
       std::make_unique<CurveSetServiceGrpc>(*impl->curve_set_core, *impl->pool);
 
+  impl->drive_events = std::make_unique<DriveEventRecorder>(impl->drives, impl->audit.get());
+  impl->audit_core = std::make_unique<AuditServiceCore>(*impl->audit);
+  impl->audit_service = std::make_unique<AuditServiceGrpc>(*impl->audit_core, *impl->pool);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -274,6 +287,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   builder.RegisterService(impl->service.get());
   builder.RegisterService(impl->parameter_set_service.get());
   builder.RegisterService(impl->curve_set_service.get());
+  builder.RegisterService(impl->audit_service.get());
   impl->grpc_server = builder.BuildAndStart();
   if (impl->grpc_server == nullptr || impl->grpc_port == 0) {
     return absl::UnavailableError(absl::StrCat("listen.grpc: cannot listen on ", cfg.listen.grpc));
@@ -286,6 +300,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   ro.channel = impl->grpc_server->InProcessChannel(grpc::ChannelArguments());
   ro.openapi_json = std::string(kOpenApiJson);
   ro.more_services = {"drivegw.v1.ParameterSetService", "drivegw.v1.CurveSetService"};
+  ro.more_services.push_back("drivegw.v1.AuditService");
   ro.static_dir = options.static_dir;
   auto rest = rest::RestServer::Start(std::move(ro));
   if (!rest.ok()) {
@@ -324,9 +339,11 @@ void Gateway::Stop() {
   if (!impl_ || impl_->stopped) return;
   impl_->stopped = true;
   if (impl_->core) impl_->core->Shutdown();  // ends watch streams
+  if (impl_->audit_core) impl_->audit_core->Shutdown();  // ends audit watch streams
   if (impl_->rest) impl_->rest->Stop();
   if (impl_->grpc_server) impl_->grpc_server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   if (impl_->pool) impl_->pool->Shutdown();
+  if (impl_->drive_events) impl_->drive_events->Stop();
   for (auto& d : impl_->drives) d->Deactivate();
   for (auto& [name, sim] : impl_->sims) sim->Stop();
   for (auto& [name, sim] : impl_->dn_sims) sim->Stop();
