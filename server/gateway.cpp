@@ -91,14 +91,20 @@ absl::StatusOr<CanBusConfig> DemoCanOpenBus(const GatewayOptions& options) {
   return bus;
 }
 
+// Demo STOBER axis's I423 (decision 413): covers the gateway's SYNC jitter and scheduling stalls
+// on a loaded host (tens of ms), and a stream that really stops is still cancelled after 0.1 s.
+constexpr double kDemoStoberExtrapolationMs = 100;
+
 // Demo: one simulated STOBER axis as CANopen node `drive.node_id` on `drive.can`, with the
 // simulator's power-on catalogue (F-LIN: referenced, I50/I51 ±10000 u) that the drive's axis
-// limits mirror (decision 409). Its heartbeat starts when the drive writes 1017h.
+// limits mirror (decision 409). Its heartbeat starts when the drive writes 1017h. Commissioned
+// for a master that is not hard real-time: I423 = 100 ms (decision 413).
 absl::StatusOr<std::unique_ptr<sim::stober::AxisServer>> StartStoberDemo(const DriveConfig& drive,
                                                                          const Clock& clock) {
   sim::stober::AxisServerOptions so;
   so.node_id = *drive.node_id;
   so.can = *drive.can;
+  so.axis.extrapolation_ms = kDemoStoberExtrapolationMs;
   auto server = sim::stober::AxisServer::Start(so, clock);
   if (!server.ok()) {
     return absl::Status(server.status().code(),

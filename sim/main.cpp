@@ -475,6 +475,9 @@ flags:
   --revolution U       revolution length I01 of the endless axis (default 360)
   --cycle-ms MS        motion-core cycle time A150, 0.125..32 (default 1)
   --heartbeat-ms MS    heartbeat producer time 1017h at power-on, 0..65535 (default 0: off)
+  --extrapolation-ms MS  extrapolation time I423 of cyclic set values at power-on, 0..60000
+                       (default 5; the gateway's demo uses 100 for a master that is not hard
+                       real-time, decision 413)
   --enabled            start in CiA 402 "Operation enabled", I89 = 2 (the reference's fixtures)
 )";
 
@@ -519,6 +522,13 @@ int RunStober(int argc, char** argv) {
       o.axis.cycle_ms = ms;
     } else if (arg == "--heartbeat-ms") {
       o.heartbeat_ms = static_cast<uint16_t>(ParseInt(arg, value, 0, 65535));
+    } else if (arg == "--extrapolation-ms") {
+      // I423's catalogue range (sim/stober/parameters.cpp): 0..60000 ms.
+      const double ms = ParseDouble(arg, value);
+      if (!(ms >= 0 && ms <= 60000)) {
+        UsageError(absl::StrCat("--extrapolation-ms: ", value, " is outside [0, 60000]"));
+      }
+      o.axis.extrapolation_ms = ms;
     } else {
       UsageError(absl::StrCat("unknown flag '", arg, "'"));
     }
@@ -536,9 +546,16 @@ int RunStober(int argc, char** argv) {
     std::cerr << "drivegw-sim: " << server.status().message() << "\n";
     return 1;
   }
-  std::cout << absl::StrFormat("stober node %d on %s (%s axis, A150 %g ms)\n", o.node_id,
-                               (*server)->bus_name(), o.axis.endless ? "endless" : "limited",
-                               o.axis.cycle_ms.value_or(1));
+  // The banner shows the axis's own A150/I423, so the power-on values can be checked from outside.
+  double cycle_ms = 0;
+  double extrapolation_ms = 0;
+  (*server)->WithAxis([&](ssim::MotionCore& core) {
+    cycle_ms = core.Read(drivegw::stober::P("A150")).value_or(0);
+    extrapolation_ms = core.Read(drivegw::stober::P("I423")).value_or(0);
+  });
+  std::cout << absl::StrFormat("stober node %d on %s (%s axis, A150 %g ms, I423 %g ms)\n",
+                               o.node_id, (*server)->bus_name(),
+                               o.axis.endless ? "endless" : "limited", cycle_ms, extrapolation_ms);
   std::cout.flush();
   WaitForSignal(signals, 0, [] {});
   (*server)->Stop();

@@ -70,6 +70,9 @@ absl::StatusOr<std::unique_ptr<MotionCore>> AxisDevice::MakeCore(const AxisDevic
   if (options.cycle_ms) {
     if (absl::Status s = write("A150", *options.cycle_ms); !s.ok()) return s;
   }
+  if (options.extrapolation_ms) {
+    if (absl::Status s = write("I423", *options.extrapolation_ms); !s.ok()) return s;
+  }
   if (options.endless) {
     if (absl::Status s = write("I01", options.revolution); !s.ok()) return s;
     if (absl::Status s = write("I00", 1); !s.ok()) return s;

@@ -33,6 +33,10 @@ struct AxisDeviceOptions {
   std::optional<double> cycle_ms;  // A150 at power-on (default: the catalogue's 1 ms)
   bool endless = false;            // I00 = 1 with I01 = revolution at power-on
   double revolution = 360;
+  // I423 at power-on (default: the catalogue's 5 ms): how long the motion core extrapolates
+  // missing cyclic set values before event 78 cause 3 (L1344) — the commissioned value of a
+  // drive whose master is not hard real-time (decision 413).
+  std::optional<double> extrapolation_ms;
 };
 
 // Every callback runs on the SlaveServer's I/O thread under its lock (decision 1126); so do the
@@ -41,8 +45,8 @@ struct AxisDeviceOptions {
 class AxisDevice : public canopen::DeviceModel {
  public:
   explicit AxisDevice(AxisDeviceOptions options = {});
-  // The options' power-on writes (A150, I00, I01) against the catalogue: InvalidArgument naming
-  // the parameter and the limit.
+  // The options' power-on writes (A150, I423, I00, I01) against the catalogue: InvalidArgument
+  // naming the parameter and the limit.
   static absl::Status Validate(const AxisDeviceOptions& options);
 
   absl::Status Configure(canopen::SlaveNode& node) override;

@@ -471,6 +471,20 @@ TEST_F(StoberCanTest, EndlessAxisAndCycleTimeOptions) {
   EXPECT_DOUBLE_EQ(*ReadParam("A150"), 0.5);
 }
 
+// The power-on extrapolation time (drivegw-sim stober --extrapolation-ms, the demo's 100 ms,
+// decision 413) is I423 over SDO, and a reset node brings it back as a commissioned value would.
+TEST_F(StoberCanTest, ExtrapolationTimeOptionIsI423AtPowerOnAndAfterResetNode) {
+  AxisServerOptions o = EnabledAxis();
+  o.axis.extrapolation_ms = 100;
+  Start(o);
+  EXPECT_DOUBLE_EQ(*ReadParam("I423"), 100);
+  ASSERT_TRUE(WriteParam("I423", 7).ok());
+  EXPECT_DOUBLE_EQ(*ReadParam("I423"), 7);
+  ASSERT_TRUE(master_->SendNmt(co::NmtCommand::kResetNode, kNode).ok());
+  ASSERT_TRUE(rec_.WaitFor([&] { return rec_.bootups >= 2; }));
+  EXPECT_DOUBLE_EQ(*ReadParam("I423"), 100);
+}
+
 TEST(AxisServerOptionsTest, InvalidOptionsNameTheParameter) {
   ManualClock clock;
   AxisServerOptions o;
@@ -481,6 +495,11 @@ TEST(AxisServerOptionsTest, InvalidOptionsNameTheParameter) {
   absl::Status s = AxisServer::Start(o, clock).status();
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(s.message(), HasSubstr("A150"));
+  o.axis.cycle_ms.reset();
+  o.axis.extrapolation_ms = 60001;  // I423's catalogue range is 0..60000 ms
+  s = AxisServer::Start(o, clock).status();
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(s.message(), HasSubstr("I423"));
 }
 
 }  // namespace
