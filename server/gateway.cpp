@@ -26,6 +26,7 @@
 #include "server/grpc/curve_set_service_grpc.h"
 #include "server/grpc/drive_service_grpc.h"
 #include "server/grpc/parameter_set_service_grpc.h"
+#include "server/grpc/peer_identity.h"
 #include "server/grpc/worker_pool.h"
 #include "server/rest/server.h"
 #include "sim/linmot/server.h"
@@ -288,7 +289,9 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   DGW_ASSIGN_OR_RETURN(auto grpc_addr, SplitHostPort("listen.grpc", cfg.listen.grpc));
-  builder.AddListeningPort(absl::StrCat(grpc_addr.first, ":", grpc_addr.second), grpc::InsecureServerCredentials(),
+  // TLS (and client certificates) on the network port only; the REST front end's in-process
+  // channel below never passes through it (decision 023).
+  builder.AddListeningPort(absl::StrCat(grpc_addr.first, ":", grpc_addr.second), GrpcServerCredentials(cfg.tls),
                            &impl->grpc_port);
   builder.RegisterService(impl->service.get());
   builder.RegisterService(impl->parameter_set_service.get());
@@ -308,6 +311,9 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   ro.more_services = {"drivegw.v1.ParameterSetService", "drivegw.v1.CurveSetService"};
   ro.more_services.push_back("drivegw.v1.AuditService");
   ro.static_dir = options.static_dir;
+  if (cfg.tls) {
+    ro.tls = rest::RestTls{cfg.tls->cert_pem, cfg.tls->key_pem, cfg.tls->client_ca_pem, cfg.tls->require_client_cert};
+  }
   auto rest = rest::RestServer::Start(std::move(ro));
   if (!rest.ok()) {
     return absl::Status(rest.status().code(), absl::StrCat("listen.http: ", rest.status().message()));
@@ -319,6 +325,10 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
                                    .Add("http_port", impl->rest->port())
                                    .Add("drives", impl->drives.size())
                                    .Add("demo", cfg.demo ? "true" : "false")
+                                   .Add("tls", !cfg.tls                         ? "off"
+                                               : cfg.tls->client_ca_pem.empty() ? "on"
+                                               : cfg.tls->require_client_cert   ? "mtls-required"
+                                                                                : "mtls-optional")
                                    .Add("db", db_path));
   return std::unique_ptr<Gateway>(new Gateway(std::move(impl)));
 }

@@ -409,6 +409,7 @@ std::unique_ptr<grpc::ClientContext> MakeContext(const HttpRequest& request) {
   if (!request.idempotency_key.empty()) {
     ctx->AddMetadata("idempotency-key", request.idempotency_key);
   }
+  if (!request.client_cn.empty()) ctx->AddMetadata("x-drivegw-client-cn-bin", request.client_cn);
   return ctx;
 }
 

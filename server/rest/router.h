@@ -33,6 +33,10 @@ struct HttpRequest {
   // as the metadata `authorization` and `idempotency-key` (issue 7: one enforcement point).
   std::string authorization;
   std::string idempotency_key;
+  // Subject CN of the HTTPS client's verified certificate ("" if none), forwarded as the
+  // binary metadata x-drivegw-client-cn-bin (a CN may be any UTF-8; trusted only on in-process
+  // calls, decision 023).
+  std::string client_cn;
 };
 
 struct HttpResponse {

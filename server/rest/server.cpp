@@ -1,5 +1,6 @@
 // REST server: Beast listener and HTTP/1.1 sessions (keep-alive, bounded pipelining, chunked
-// NDJSON streams, deadlines) in front of the socketless router. The only Beast TU of dgw_rest.
+// NDJSON streams, deadlines) over plain TCP or TLS (decision 023) in front of the socketless
+// router. The only Beast TU of dgw_rest.
 #include "server/rest/server.h"
 
 #include <array>
@@ -7,6 +8,8 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
+#include <boost/asio/ssl/context.hpp>
+#include <boost/asio/ssl/stream.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/strand.hpp>
 #include <boost/asio/write.hpp>
@@ -18,6 +21,7 @@
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -32,6 +36,7 @@ namespace http = beast::http;
 namespace net = boost::asio;
 using tcp = net::ip::tcp;
 using beast::error_code;
+using TlsStream = net::ssl::stream<tcp::socket>;
 
 constexpr size_t kMaxPipelined = 8;       // requests read ahead of their responses
 constexpr uint32_t kHeaderLimit = 16384;  // request line + headers
@@ -57,27 +62,38 @@ bool IsParseError(const error_code& ec) {
   return ec.category() == http::make_error_code(http::error::bad_target).category();
 }
 
-class Session;
+// What RestServer::Stop needs of a session, whatever its stream.
+class SessionBase : public std::enable_shared_from_this<SessionBase> {
+ public:
+  virtual ~SessionBase() = default;
+  virtual void CloseNow() = 0;
+};
 
 // State every session reads; owned by RestServer::Impl, which outlives the sessions.
 struct Shared {
   RestOptions options;
   std::unique_ptr<Router> router;
+  std::optional<net::ssl::context> tls;  // set for HTTPS
   std::mutex sessions_mu;
-  std::map<Session*, std::weak_ptr<Session>> sessions;
+  std::map<SessionBase*, std::weak_ptr<SessionBase>> sessions;
 };
 
-// One connection. All members are touched on the socket's strand only; router callbacks come
-// in through Exchange, which posts them there.
-class Session : public std::enable_shared_from_this<Session> {
+// One connection over `Stream` (tcp::socket, or TlsStream for HTTPS). All members are touched
+// on the socket's strand only; router callbacks come in through Exchange, which posts them there.
+template <typename Stream>
+class Session final : public SessionBase {
  public:
-  Session(tcp::socket&& socket, Shared& shared)
-      : socket_(std::move(socket)),
+  static constexpr bool kTls = std::is_same_v<Stream, TlsStream>;
+
+  // `stream_args`: the accepted socket, and for TLS the shared context.
+  template <typename... Args>
+  Session(Shared& shared, Args&&... stream_args)
+      : stream_(std::forward<Args>(stream_args)...),
         shared_(shared),
-        idle_timer_(socket_.get_executor()),
-        write_timer_(socket_.get_executor()) {
+        idle_timer_(stream_.get_executor()),
+        write_timer_(stream_.get_executor()) {
     error_code ec;
-    const auto ep = socket_.remote_endpoint(ec);
+    const auto ep = Socket().remote_endpoint(ec);
     peer_ = ec ? "unknown" : PeerString(ep);
   }
 
@@ -94,12 +110,20 @@ class Session : public std::enable_shared_from_this<Session> {
       std::lock_guard lock(shared_.sessions_mu);
       shared_.sessions.emplace(this, weak_from_this());
     }
-    net::post(socket_.get_executor(), [self = shared_from_this()] { self->DoRead(); });
+    net::post(stream_.get_executor(), [self = Self()] {
+      if constexpr (kTls) {
+        self->DoHandshake();
+      } else {
+        self->DoRead();
+      }
+    });
   }
 
   // For RestServer::Stop once the I/O threads are joined (no other thread touches us then).
-  void CloseNow() {
-    DoClose();
+  void CloseNow() override {
+    if (!closed_) DoCloseState();
+    error_code ec;
+    Socket().shutdown(tcp::socket::shutdown_send, ec);
     CloseSocket();  // also ends a lingering close
   }
 
@@ -146,6 +170,59 @@ class Session : public std::enable_shared_from_this<Session> {
     bool error_line_sent = false;
   };
 
+  std::shared_ptr<Session> Self() { return std::static_pointer_cast<Session>(shared_from_this()); }
+  tcp::socket& Socket() {
+    if constexpr (kTls) {
+      return stream_.next_layer();
+    } else {
+      return stream_;
+    }
+  }
+
+  // --- TLS ---
+  // The handshake must complete within handshake_timeout; a failed one (no or an unverified
+  // client certificate when one is required, a plain-HTTP client) just closes the connection.
+  void DoHandshake() {
+    idle_timer_.expires_after(shared_.options.handshake_timeout);
+    idle_timer_.async_wait([self = Self()](error_code ec) {
+      if (!ec && !self->handshake_done_ && Expired(self->idle_timer_)) {
+        log::Debug("rest.tls_handshake_timeout", log::Fields().Add("peer", self->peer_));
+        self->CloseSocket();
+      }
+    });
+    if constexpr (kTls) {
+      stream_.async_handshake(net::ssl::stream_base::server,
+                              beast::bind_front_handler(&Session::OnHandshake, Self()));
+    }
+  }
+
+  void OnHandshake(error_code ec) {
+    idle_timer_.cancel();
+    if (ec) {
+      log::Debug("rest.tls_handshake", log::Fields().Add("peer", peer_).Add("error", ec.message()));
+      closed_ = true;
+      return CloseSocket();
+    }
+    handshake_done_ = true;
+    if constexpr (kTls) client_cn_ = VerifiedClientCommonName(stream_.native_handle());
+    DoRead();
+  }
+
+  // Sends close_notify and waits (briefly) for the peer's, so a body that ends with the
+  // connection is not taken for a truncation attack; a stuck peer is cut off after kLingerTime.
+  void TlsShutdown() {
+    error_code ec;
+    if (!handshake_done_ || writing_) return CloseSocket();
+    Socket().cancel(ec);  // a pending read-ahead ends (OnRead sees closed_)
+    write_timer_.expires_after(kLingerTime);
+    write_timer_.async_wait([self = Self()](error_code wait_ec) {
+      if (!wait_ec) self->CloseSocket();
+    });
+    if constexpr (kTls) {
+      stream_.async_shutdown([self = Self()](error_code) { self->CloseSocket(); });
+    }
+  }
+
   Slot* Find(uint64_t id) {
     for (auto& s : slots_) {
       if (s.id == id) return &s;
@@ -161,8 +238,8 @@ class Session : public std::enable_shared_from_this<Session> {
     parser_->header_limit(kHeaderLimit);
     reading_ = true;
     UpdateIdleDeadline();
-    http::async_read(socket_, buffer_, *parser_,
-                     beast::bind_front_handler(&Session::OnRead, shared_from_this()));
+    http::async_read(stream_, buffer_, *parser_,
+                     beast::bind_front_handler(&Session::OnRead, Self()));
   }
 
   void OnRead(error_code ec, size_t /*bytes*/) {
@@ -216,11 +293,12 @@ class Session : public std::enable_shared_from_this<Session> {
                         peer_,
                         Str(req[http::field::if_match]),
                         Str(req[http::field::authorization]),
-                        Str(req["Idempotency-Key"])};
+                        Str(req["Idempotency-Key"]),
+                        client_cn_};
     const uint64_t id = slot.id;
     slots_.push_back(std::move(slot));
     UpdateIdleDeadline();
-    shared_.router->Handle(std::move(request), std::make_shared<Exchange>(shared_from_this(), id));
+    shared_.router->Handle(std::move(request), std::make_shared<Exchange>(Self(), id));
     DoRead();  // read ahead (pipelining) and notice a client that goes away
   }
 
@@ -245,7 +323,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void UpdateIdleDeadline() {
     if (slots_.empty() && reading_) {
       idle_timer_.expires_after(shared_.options.read_timeout);
-      idle_timer_.async_wait([self = shared_from_this()](error_code ec) {
+      idle_timer_.async_wait([self = Self()](error_code ec) {
         if (!ec && self->slots_.empty() && Expired(self->idle_timer_)) {
           log::Debug("rest.idle_timeout", log::Fields().Add("peer", self->peer_));
           self->DoClose();
@@ -285,7 +363,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void StartWriteDeadline() {
     writing_ = true;
     write_timer_.expires_after(shared_.options.read_timeout);
-    write_timer_.async_wait([self = shared_from_this()](error_code ec) {
+    write_timer_.async_wait([self = Self()](error_code ec) {
       if (!ec && self->writing_ && Expired(self->write_timer_)) {
         log::Debug("rest.write_timeout", log::Fields().Add("peer", self->peer_));
         self->DoClose();
@@ -310,7 +388,7 @@ class Session : public std::enable_shared_from_this<Session> {
                                     .Add("target", s.target)
                                     .Add("status", r.status));
     StartWriteDeadline();
-    http::async_write(socket_, *res, [self = shared_from_this(), res](error_code ec, size_t) {
+    http::async_write(stream_, *res, [self = Self(), res](error_code ec, size_t) {
       self->OnWritten(ec, /*done=*/true, !res->keep_alive());
     });
   }
@@ -332,20 +410,20 @@ class Session : public std::enable_shared_from_this<Session> {
     auto sr = std::make_shared<http::response_serializer<http::empty_body>>(*res);
     log::Debug("rest.stream", log::Fields().Add("peer", peer_).Add("target", s.target));
     StartWriteDeadline();
-    http::async_write_header(socket_, *sr,
-                             [self = shared_from_this(), res, sr](error_code ec, size_t) {
+    http::async_write_header(stream_, *sr,
+                             [self = Self(), res, sr](error_code ec, size_t) {
                                self->OnWritten(ec, /*done=*/false, false);
                              });
   }
 
   void WriteBody(Slot& s, std::shared_ptr<std::string> line, bool last) {
     StartWriteDeadline();
-    auto self = shared_from_this();
+    auto self = Self();
     const bool chunked = s.version >= 11;
     const bool close_after = last && !KeepAlive(s);
     if (last) {
       if (!chunked) return OnWritten({}, /*done=*/true, /*close=*/true);
-      net::async_write(socket_, http::make_chunk_last(),
+      net::async_write(stream_, http::make_chunk_last(),
                        [self, close_after](error_code ec, size_t) {
                          self->OnWritten(ec, /*done=*/true, close_after);
                        });
@@ -356,9 +434,9 @@ class Session : public std::enable_shared_from_this<Session> {
       if (!ec && stream) stream->RequestNext();  // flow control: one line in flight
     };
     if (chunked) {
-      net::async_write(socket_, http::make_chunk(net::buffer(*line)), std::move(on_done));
+      net::async_write(stream_, http::make_chunk(net::buffer(*line)), std::move(on_done));
     } else {
-      net::async_write(socket_, net::buffer(*line), std::move(on_done));
+      net::async_write(stream_, net::buffer(*line), std::move(on_done));
     }
   }
 
@@ -383,8 +461,9 @@ class Session : public std::enable_shared_from_this<Session> {
   void DoClose() {
     if (closed_) return;
     DoCloseState();
+    if constexpr (kTls) return TlsShutdown();
     error_code ec;
-    socket_.shutdown(tcp::socket::shutdown_send, ec);
+    Socket().shutdown(tcp::socket::shutdown_send, ec);
     CloseSocket();
   }
 
@@ -404,19 +483,20 @@ class Session : public std::enable_shared_from_this<Session> {
   void LingerClose() {
     if (closed_) return;
     error_code ec;
-    socket_.cancel(ec);  // a pending read-ahead ends (OnRead sees closed_)
+    Socket().cancel(ec);  // a pending read-ahead ends (OnRead sees closed_)
     DoCloseState();
-    socket_.shutdown(tcp::socket::shutdown_send, ec);
+    if constexpr (kTls) return TlsShutdown();  // close_notify plays the part of the FIN
+    Socket().shutdown(tcp::socket::shutdown_send, ec);
     write_timer_.expires_after(kLingerTime);
-    write_timer_.async_wait([self = shared_from_this()](error_code wait_ec) {
+    write_timer_.async_wait([self = Self()](error_code wait_ec) {
       if (!wait_ec) self->CloseSocket();
     });
     Drain(std::make_shared<std::array<char, 4096>>(), 0);
   }
 
   void Drain(std::shared_ptr<std::array<char, 4096>> buf, size_t total) {
-    socket_.async_read_some(net::buffer(*buf),
-                            [self = shared_from_this(), buf, total](error_code ec, size_t n) {
+    Socket().async_read_some(net::buffer(*buf),
+                             [self = Self(), buf, total](error_code ec, size_t n) {
                               if (ec || total + n > kLingerBytes) return self->CloseSocket();
                               self->Drain(buf, total + n);
                             });
@@ -425,7 +505,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void CloseSocket() {
     error_code ec;
     write_timer_.cancel();
-    socket_.close(ec);
+    Socket().close(ec);
   }
 
   // The router's view of one request: forwards each event to the session's strand.
@@ -458,7 +538,7 @@ class Session : public std::enable_shared_from_this<Session> {
     template <typename F>
     void Post(F&& f) noexcept {
       try {
-        net::post(session_->socket_.get_executor(), std::forward<F>(f));
+        net::post(session_->stream_.get_executor(), std::forward<F>(f));
       } catch (const std::exception& e) {
         log::Error("rest.post", log::Fields().Add("error", e.what()));
       }
@@ -467,9 +547,11 @@ class Session : public std::enable_shared_from_this<Session> {
     uint64_t id_;
   };
 
-  tcp::socket socket_;
+  Stream stream_;
   Shared& shared_;
   std::string peer_;
+  std::string client_cn_;  // subject CN of the verified client certificate (TLS), else ""
+  bool handshake_done_ = !kTls;
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
   net::steady_timer idle_timer_;
@@ -509,7 +591,11 @@ struct RestServer::Impl {
       }
       error_code nodelay_ec;
       socket.set_option(tcp::no_delay(true), nodelay_ec);
-      std::make_shared<Session>(std::move(socket), shared)->Run();
+      if (shared.tls) {
+        std::make_shared<Session<TlsStream>>(shared, std::move(socket), *shared.tls)->Run();
+      } else {
+        std::make_shared<Session<tcp::socket>>(shared, std::move(socket))->Run();
+      }
       DoAccept();
     });
   }
@@ -531,6 +617,10 @@ absl::StatusOr<std::unique_ptr<RestServer>> RestServer::Start(RestOptions option
 
   auto impl = std::make_unique<Impl>(options.threads);
   impl->shared.router = *std::move(router);
+  if (options.tls) {
+    impl->shared.tls.emplace(net::ssl::context::tls_server);
+    if (absl::Status s = ConfigureTlsContext(*options.tls, *impl->shared.tls); !s.ok()) return s;
+  }
   error_code ec;
   const auto address = net::ip::make_address(options.listen_address, ec);
   if (ec) {
@@ -566,6 +656,7 @@ absl::StatusOr<std::unique_ptr<RestServer>> RestServer::Start(RestOptions option
   log::Info("rest.listening", log::Fields()
                                   .Add("address", impl->shared.options.listen_address)
                                   .Add("port", impl->port)
+                                  .Add("tls", impl->shared.tls ? "true" : "false")
                                   .Add("routes", impl->shared.router->routes().size()));
   return std::unique_ptr<RestServer>(new RestServer(std::move(impl)));
 }
@@ -589,7 +680,7 @@ void RestServer::Stop() {
   error_code ec;
   impl_->acceptor.close(ec);
   impl_->accept_retry.cancel();
-  std::vector<std::shared_ptr<Session>> sessions;
+  std::vector<std::shared_ptr<SessionBase>> sessions;
   {
     std::lock_guard lock(impl_->shared.sessions_mu);
     for (auto& [ptr, weak] : impl_->shared.sessions) {

@@ -1,15 +1,17 @@
-// REST server: HTTP/1.1 listener and sessions (Boost.Beast, kept inside server.cpp) in front of
-// the router, which transcodes to the gRPC service over an in-process channel.
+// REST server: HTTP/1.1 (or HTTPS) listener and sessions (Boost.Beast, kept inside server.cpp)
+// in front of the router, which transcodes to the gRPC service over an in-process channel.
 #pragma once
 
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "server/rest/tls_context.h"
 
 namespace grpc {
 class Channel;
@@ -28,6 +30,11 @@ struct RestOptions {
   // Deadline for a whole request once the connection is idle, and for every write.
   std::chrono::seconds read_timeout{30};
   int threads = 2;
+  // HTTPS (TLS 1.2+) when set, plain HTTP otherwise. A verified client certificate's subject
+  // CN goes to the in-process call as HttpRequest::client_cn (decision 023).
+  std::optional<RestTls> tls;
+  // Deadline of the TLS handshake once the connection is accepted.
+  std::chrono::seconds handshake_timeout{10};
 };
 
 class RestServer {

@@ -259,10 +259,11 @@ TEST(CurveSetMigrationTest, FromVersion2_DataKept_TablesAdded) {
                     }).ok());
     }
     ASSERT_TRUE(ParameterSetRepo(*db).Create(ps).ok());
-    AuditEntry e;
-    e.principal = "alice";
-    e.action = "CreateParameterSet";
-    ASSERT_TRUE(AuditLog(*db).Append(e).ok());
+    // An audit row as that build wrote it (AuditLog now appends to the 005 hash chain).
+    ASSERT_TRUE(db->Exec("INSERT INTO audit_log (ts, principal, source_address, drive, action, "
+                         "request_json, result_code, result_message) VALUES "
+                         "('2024-05-01T12:00:00.000Z', 'alice', '', '', 'CreateParameterSet', '', 0, '')")
+                    .ok());
     EXPECT_FALSE(db->Exec("SELECT 1 FROM curve_sets").ok());
   }
   auto db = OpenDb(path);

@@ -420,10 +420,11 @@ TEST(ParameterSetMigrationTest, From001_DataKept_TablesAdded) {
                          "drive_count) VALUES ('2024-05-01T12:00:00.000Z', 'file:x', 'drives: []', "
                          "0)")
                     .ok());
-    AuditEntry e;
-    e.principal = "alice";
-    e.action = "Enable";
-    ASSERT_TRUE(AuditLog(*db).Append(e).ok());
+    // An audit row as that build wrote it (AuditLog now appends to the 005 hash chain).
+    ASSERT_TRUE(db->Exec("INSERT INTO audit_log (ts, principal, source_address, drive, action, "
+                         "request_json, result_code, result_message) VALUES "
+                         "('2024-05-01T12:00:00.000Z', 'alice', '', '', 'Enable', '', 0, '')")
+                    .ok());
     EXPECT_FALSE(db->Exec("SELECT 1 FROM parameter_sets").ok());
   }
   auto db = OpenDb(path);
