@@ -9,6 +9,7 @@
 #include "absl/strings/str_format.h"
 #include "adapters/canopen/cob_id.h"
 #include "adapters/core/log.h"
+#include "adapters/core/wire_observer.h"
 
 namespace drivegw::canopen {
 namespace {
@@ -155,7 +156,39 @@ void CanopenMaster::WakeReceiver() {
   channel_->Wake();
 }
 
+void CanopenMaster::SetNodeTrace(uint8_t node, const std::string& drive) {
+  std::lock_guard lock(trace_mu_);
+  if (drive.empty()) {
+    traced_nodes_.erase(node);
+  } else {
+    traced_nodes_[node] = drive;
+  }
+  tracing_.store(!traced_nodes_.empty());
+}
+
+void CanopenMaster::TraceFrame(const transport::CanFrame& frame, const char* dir, uint8_t node) {
+  if (!tracing_.load(std::memory_order_relaxed)) return;
+  // CiA 301 §7.3.3: function code in bits 10..7, node ID in bits 6..0; NMT (0) names the node
+  // in its second byte, SYNC/TIME (0x80, 0x100) none.
+  if (node == 0 && !frame.extended) {
+    if (frame.id == 0 && frame.dlc >= 2) {
+      node = frame.data[1];
+    } else if (frame.id != 0x80 && frame.id != 0x100) {
+      node = static_cast<uint8_t>(frame.id & 0x7F);
+    }
+  }
+  std::string drive;
+  {
+    std::lock_guard lock(trace_mu_);
+    auto it = traced_nodes_.find(node);
+    if (it == traced_nodes_.end()) return;
+    drive = it->second;
+  }
+  wire::TraceText(drive, "canopen", dir, transport::FormatCanFrame(frame));
+}
+
 absl::Status CanopenMaster::SendFrame(const transport::CanFrame& frame) {
+  TraceFrame(frame, "tx");
   absl::Status s;
   {
     std::shared_lock lock(channel_mu_);
@@ -415,9 +448,11 @@ void CanopenMaster::HandleFrameLocked(const transport::CanFrame& frame, TimePoin
   if (!frame.rtr) {
     // Configured TPDOs first: they may use any identifier (decision 1107).
     if (auto it = tpdo_by_cob_.find(static_cast<uint16_t>(frame.id)); it != tpdo_by_cob_.end()) {
+      TraceFrame(frame, "rx", it->second.first);
       return HandleTpdoLocked(it->second.first, it->second.second, frame, now);
     }
   }
+  TraceFrame(frame, "rx");
   absl::StatusOr<CobIdClass> cls = ClassifyCobId(frame.id);
   if (!cls.ok()) {
     ++counters_.other_traffic;

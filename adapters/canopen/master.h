@@ -256,6 +256,11 @@ class CanopenMaster {
   std::string bus_name() const;
   bool link_up() const;
 
+  // Wire trace of node `node` (Drive::SetWireTrace): while set, every frame whose identifier
+  // carries the node (predefined connection set, CiA 301 §7.3.3; configured TPDOs by their
+  // COB-ID) is logged naming `drive`. An empty `drive` ends it.
+  void SetNodeTrace(uint8_t node, const std::string& drive);
+
  private:
   struct SdoRequest {
     explicit SdoRequest(SdoClientTransfer t) : transfer(std::move(t)) {}
@@ -341,6 +346,8 @@ class CanopenMaster {
 
   // Any thread, with or without mu_ (lock order: mu_, then channel_mu_).
   absl::Status SendFrame(const transport::CanFrame& frame);
+  // Logs `frame` for the traced node it carries (SetNodeTrace); `node` 0: from the identifier.
+  void TraceFrame(const transport::CanFrame& frame, const char* dir, uint8_t node = 0);
   void WakeReceiver();
   bool OnReceiveThread() const { return std::this_thread::get_id() == receive_thread_id_.load(); }
   bool HasObserverLocked(uint8_t node) const;
@@ -369,6 +376,10 @@ class CanopenMaster {
   std::map<uint16_t, std::pair<uint8_t, uint16_t>> tpdo_by_cob_;  // configured and valid
   std::vector<Notification> pending_;  // filled under mu_, delivered by Dispatch
   MasterCounters counters_;            // except frames_out / send_errors
+
+  std::atomic<bool> tracing_{false};
+  mutable std::mutex trace_mu_;                  // below; taken alone, never around a send
+  std::map<uint8_t, std::string> traced_nodes_;  // node -> drive name
   std::atomic<uint64_t> frames_out_{0};
   std::atomic<uint64_t> send_errors_{0};
   std::atomic<std::thread::id> receive_thread_id_{};

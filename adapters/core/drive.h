@@ -173,6 +173,15 @@ class Drive {
                                                  config().family, "' cannot run curves"));
   }
 
+  // The per-drive wire trace (issue 7; adapters/core/wire_observer.h): while on, every telegram,
+  // instruction or frame of this drive is logged as one `event=wire` line. Off at start; may be
+  // switched at any time, in any lifecycle state. Families without one: Unimplemented.
+  virtual absl::Status SetWireTrace(bool on) {
+    (void)on;
+    return absl::UnimplementedError(absl::StrCat("drive '", config().name, "': family '",
+                                                 config().family, "' has no wire trace"));
+  }
+
   virtual absl::StatusOr<int64_t> ReadParameter(const ParameterRef& ref) = 0;
   virtual absl::Status WriteParameter(const ParameterRef& ref, int64_t value) = 0;
   virtual absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) = 0;

@@ -88,6 +88,19 @@ StoberDriveCounters StoberDrive::counters() const {
   return counters_;
 }
 
+std::optional<co::MasterCounters> StoberDrive::master_counters() const {
+  std::lock_guard lock(mu_);
+  if (!master_) return std::nullopt;
+  return master_->counters();
+}
+
+absl::Status StoberDrive::SetWireTrace(bool on) {
+  std::lock_guard lock(mu_);
+  if (!master_) return absl::FailedPreconditionError(Prefix("SetWireTrace") + "needs state ACTIVE");
+  master_->SetNodeTrace(node_, on ? config().name : std::string());
+  return absl::OkStatus();
+}
+
 // ---------------------------------------------------------------- lifecycle
 
 absl::Status StoberDrive::DoActivate() {
@@ -139,6 +152,7 @@ void StoberDrive::DoDeactivate() {
     observer_.reset();
   }
   if (master && observer) master->RemoveNodeObserver(*observer);
+  if (master) master->SetNodeTrace(node_, "");  // the bus master outlives this drive
   std::lock_guard lock(mu_);
   EndTrackerLocked(CommandState::kAborted, "drive deactivated");
   configured_ = false;

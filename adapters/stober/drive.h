@@ -81,6 +81,10 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) override;
 
   StoberDriveCounters counters() const;
+  // The bus master's counters (SYNC timing, SDO, PDO); nullopt while not ACTIVE.
+  std::optional<canopen::MasterCounters> master_counters() const;
+  // Frames of this node on the bus while ACTIVE (CanopenMaster::SetNodeTrace).
+  absl::Status SetWireTrace(bool on) override;
 
  protected:
   absl::Status DoActivate() override;

@@ -133,6 +133,7 @@ void TrinamicDrive::DoDeactivate() {
     pack = pack_;
   }
   if (pack && registered_) pack->Unregister(axis_);
+  if (pack) pack->SetWireTrace(config().name, false);  // a shared Pack outlives this axis
   std::lock_guard lock(mu_);
   registered_ = false;
   if (tracker_) {
@@ -1268,6 +1269,16 @@ absl::StatusOr<NativeReply> TrinamicDrive::SendNative(const NativeRequest& req) 
 TrinamicDriveCounters TrinamicDrive::counters() const {
   std::lock_guard lock(mu_);
   return counters_;
+}
+
+absl::Status TrinamicDrive::SetWireTrace(bool on) {
+  std::lock_guard lock(mu_);
+  if (!pack_) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("drive '", config().name, "': SetWireTrace needs state ACTIVE"));
+  }
+  pack_->SetWireTrace(config().name, on);
+  return absl::OkStatus();
 }
 
 std::optional<PackCounters> TrinamicDrive::pack_counters() const {

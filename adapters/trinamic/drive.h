@@ -69,6 +69,8 @@ class TrinamicDrive final : public DriveBase, private PackListener {
   absl::Status WriteParameter(const ParameterRef& ref, int64_t value) override;
   // TrinamicRequest (any opcode but $F2..$F7) and TrinamicTunnelRequest (CAN only).
   absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) override;
+  // Words of the controller's line while ACTIVE (the axes share it; ControllerSession).
+  absl::Status SetWireTrace(bool on) override;
 
   // Diagnostics (dashboard); nullopt while not ACTIVE.
   TrinamicDriveCounters counters() const;

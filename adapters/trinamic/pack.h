@@ -107,6 +107,8 @@ class Pack final : private SessionObserver {
   // Newest sample of every registered axis (the Pack's knowledge of motor activity, CT-56).
   std::map<uint8_t, AxisSample> samples() const;
   SessionCounters session_counters() const { return session_->counters(); }
+  // The controller's wire trace on behalf of drive `drive` (ControllerSession::SetWireTrace).
+  void SetWireTrace(const std::string& drive, bool on) { session_->SetWireTrace(drive, on); }
   PackCounters counters() const;
   const std::string& key() const { return key_; }
   const TrinamicConfig& config() const { return config_; }

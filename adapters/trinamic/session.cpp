@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "adapters/core/wire_observer.h"
 #include "adapters/transport/can_frame.h"
 
 namespace drivegw::trinamic {
@@ -407,6 +409,17 @@ absl::StatusOr<Reply> ControllerSession::Exchange(const Command& command, Deadli
   // Late replies or garbage pending now would be taken for this request's reply: dropped.
   d.unsolicited += link_->Drain(d.stray_zeros);
   ++d.requests;
+  std::string traced;
+  if (tracing_.load(std::memory_order_relaxed)) {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    traced = absl::StrJoin(traced_drives_, ",");
+  }
+  if (!traced.empty()) {
+    if (auto bytes = EncodeCommand(command); bytes.ok()) {
+      wire::Trace(traced, "trinamic", "tx", *bytes, SpecOf(command.opcode).name);
+    }
+  }
+  const Deadline sent_at = SessionClock::now();
   absl::Status sent = link_->Send(command);
   absl::StatusOr<Reply> reply = absl::UnknownError("not sent");
   bool duplicate = false;
@@ -419,6 +432,11 @@ absl::StatusOr<Reply> ControllerSession::Exchange(const Command& command, Deadli
     reply = link_->Receive(command, options_.response_address, deadline, detect, d);
     if (reply.ok()) {
       ++d.replies;
+      wire::ObserveRoundTrip("trinamic", name_, SessionClock::now() - sent_at);
+      if (!traced.empty()) {
+        auto bytes = EncodeReply(*reply, link_->framing().value_or(ReplyFraming::kR8));
+        if (bytes.ok()) wire::Trace(traced, "trinamic", "rx", *bytes);
+      }
       const auto extra = link_->AfterReply(options_.duplicate_window, d);
       duplicate = extra == SessionLink::Extra::kDuplicate;
       if (duplicate) ++d.duplicate_replies;
@@ -505,6 +523,16 @@ absl::Status ControllerSession::SendTunnel(const std::vector<uint8_t>& data) {
   std::lock_guard<std::mutex> l(state_mutex_);
   ++counters_.requests;
   return absl::OkStatus();
+}
+
+void ControllerSession::SetWireTrace(const std::string& drive, bool on) {
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  if (on) {
+    traced_drives_.insert(drive);
+  } else {
+    traced_drives_.erase(drive);
+  }
+  tracing_.store(!traced_drives_.empty());
 }
 
 absl::StatusOr<std::optional<Reply>> ControllerSession::Transact(const Command& command,

@@ -3,12 +3,14 @@
 // decisions docs/decisions/1051-1056.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -175,6 +177,11 @@ class ControllerSession {
   std::string name() const { return name_; }
   const SessionOptions& options() const { return options_; }
 
+  // Wire trace of the drive `drive` on this controller (Drive::SetWireTrace): while any drive
+  // has it on, every word of the line and its reply is logged as hex, naming those drives (the
+  // axes share one serialised line, L357).
+  void SetWireTrace(const std::string& drive, bool on);
+
  private:
   ControllerSession(std::unique_ptr<SessionLink> link, const SessionOptions& options);
   absl::Status ProbeLocked();
@@ -201,6 +208,9 @@ class ControllerSession {
   LinkState state_ = LinkState::kUnknown;
   std::optional<int> baud_;  // the link's rate, mirrored for baud() without the I/O lock
   SessionCounters counters_;
+
+  std::atomic<bool> tracing_{false};
+  std::set<std::string> traced_drives_;  // under state_mutex_
 
   std::mutex observers_mutex_;
   std::map<int, SessionObserver*> observers_;

@@ -241,6 +241,7 @@ absl::Status LinMotDnDrive::DoActivate() {
   po.explicit_epr_ms = options_.explicit_epr_ms;
   po.explicit_timeout = options_.explicit_timeout;
   po.restart_wait = options_.restart_wait;
+  po.wire_trace = wire_trace_;
   absl::StatusOr<PeerId> id = session->Register(po, this);
   std::lock_guard lock(mu_);
   if (!id.ok()) {

@@ -3,6 +3,7 @@
 // unified status. Sources: linmot-devicenet.md §7, §8, §11; decisions docs/decisions/980..989.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -78,6 +79,11 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
   // handshake's, §8.2), word 2 = value (-32768..65535). Reply: word2 = echo, word3 = response
   // value, word4 = status low word, status = coded error the command raised (0: none).
   absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) override;
+  // Frames to and from this MAC ID, logged by the session (PeerOptions::wire_trace).
+  absl::Status SetWireTrace(bool on) override {
+    wire_trace_->store(on);
+    return absl::OkStatus();
+  }
 
   // Diagnostics for the dashboard; nullopt while not ACTIVE.
   std::optional<PeerCounters> exchange_counters() const;
@@ -195,6 +201,7 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
                                  TimePoint deadline, const std::string& what);
 
   const Clock& clock_;
+  const std::shared_ptr<std::atomic<bool>> wire_trace_ = std::make_shared<std::atomic<bool>>(false);
   const std::string name_;
   const DnDriveOptions options_;
 

@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "adapters/core/log.h"
+#include "adapters/core/wire_observer.h"
 #include "adapters/linmot/devicenet/codec_can.h"
 
 namespace drivegw::linmot::devicenet {
@@ -244,6 +245,7 @@ bool Session::SendFrameLocked(const Frame& frame, PeerCounters* counters) {
   } else {
     ++counters_.frames_sent;
   }
+  if (auto ident = DecodeIdentifier(frame.id); ident.ok()) TraceLocked(ident->mac_id, "tx", frame);
   absl::Status s = channel_->Send(ToCanFrame(frame));
   if (s.ok()) return true;
   if (counters != nullptr) ++counters->send_errors;
@@ -252,6 +254,14 @@ bool Session::SendFrameLocked(const Frame& frame, PeerCounters* counters) {
                                          .Add("frame", FrameToString(frame))
                                          .Add("error", s.message()));
   return false;
+}
+
+void Session::TraceLocked(uint8_t mac, const char* dir, const Frame& frame) {
+  const Peer* p = FindByMacLocked(mac);
+  if (p != nullptr && p->options.wire_trace &&
+      p->options.wire_trace->load(std::memory_order_relaxed)) {
+    wire::TraceText(p->options.name, "linmot-devicenet", dir, FrameToString(frame));
+  }
 }
 
 void Session::SendExplicitLocked(Peer& p, const ExplicitRequest& request, uint16_t id,
@@ -585,6 +595,7 @@ void Session::HandleFrameLocked(const transport::CanFrame& raw, TimePoint now) {
   }
   const std::span<const uint8_t> data = frame->payload();
   const uint8_t mac = ident->mac_id;
+  TraceLocked(mac, "rx", *frame);
   if (ident->group == MessageGroup::kGroup1) {
     Peer* p = FindByMacLocked(mac);
     if (p == nullptr) {
@@ -734,6 +745,9 @@ void Session::HandleExplicitResponseLocked(Peer& p, std::span<const uint8_t> dat
   }
   const Explicit request = *p.pending_explicit;
   p.pending_explicit.reset();
+  // Sent at deadline - explicit_timeout (SendExplicitLocked): the request's round trip.
+  wire::ObserveRoundTrip("linmot-devicenet", p.options.name,
+                         now - (request.deadline - p.options.explicit_timeout));
   if (response->is_error()) ++p.counters.explicit_errors;
   OnExplicitResultLocked(p, request, *response, now);
 }

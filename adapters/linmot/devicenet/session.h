@@ -5,6 +5,7 @@
 // §11.8, §11.9; decisions docs/decisions/980-989). What goes into a poll is the peer's job.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -88,6 +89,9 @@ struct PeerOptions {
   Duration retry_min = std::chrono::milliseconds(100);  // set-up back-off, doubling ...
   Duration retry_max = std::chrono::seconds(2);         // ... up to this
   Duration restart_wait = std::chrono::seconds(2);      // §11.8: drive restarted, wait >= 2 s
+  // Wire trace switch (Drive::SetWireTrace): while it reads true, every frame to and from this
+  // MAC ID is logged (adapters/core/wire_observer.h). Null: never.
+  std::shared_ptr<const std::atomic<bool>> wire_trace;
 };
 
 // The drive side of a registration. Called on the session's I/O thread while the session holds
@@ -216,6 +220,8 @@ class Session {
                           bool keep_alive = false);
   void SendPollLocked(Peer& p, TimePoint now);
   bool SendFrameLocked(const Frame& frame, PeerCounters* counters);
+  // Logs `frame` when the drive with `mac` has its wire trace on.
+  void TraceLocked(uint8_t mac, const char* dir, const Frame& frame);
   void StartSetupLocked(Peer& p, TimePoint now);
   void FailSetupLocked(Peer& p, TimePoint now, const std::string& why, bool release_first);
   void EstablishLocked(Peer& p, TimePoint now);

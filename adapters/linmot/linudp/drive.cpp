@@ -196,6 +196,7 @@ absl::Status LinMotUdpDrive::DoActivate() {
   options.cycle = c.cycle;
   options.reply_timeout = c.reply_timeout;
   options.lost_after_timeouts = c.lost_after_timeouts;
+  options.wire_trace = wire_trace_;
   absl::StatusOr<PeerId> id = (*session)->Register(options, this);
   std::lock_guard lock(mu_);
   if (!id.ok()) {

@@ -4,6 +4,7 @@
 // A-07..A-10; decisions docs/decisions/701..705.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -69,6 +70,11 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   // status and words 2-4 as the drive answered, OK even for status >= 0xC0.
   // Restart Drive (0x30) follows A-11 and returns once the drive answers again after booting.
   absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) override;
+  // Telegram hex of both directions, logged by the session (PeerOptions::wire_trace).
+  absl::Status SetWireTrace(bool on) override {
+    wire_trace_->store(on);
+    return absl::OkStatus();
+  }
 
   // Diagnostics for the dashboard; nullopt while not ACTIVE.
   std::optional<ExchangeCounters> exchange_counters() const;
@@ -191,6 +197,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
 
   const Clock& clock_;
   const std::string name_;
+  const std::shared_ptr<std::atomic<bool>> wire_trace_ = std::make_shared<std::atomic<bool>>(false);
 
   std::mutex op_mu_;   // one control-word / motion operation at a time
   std::mutex rtc_mu_;  // one RTC transaction at a time

@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "adapters/core/log.h"
+#include "adapters/core/wire_observer.h"
 
 namespace drivegw::linmot::linudp {
 namespace {
@@ -193,6 +194,9 @@ Duration Session::ServiceLocked(TimePoint now) {
       const Request request = p.peer->BuildRequest();
       const std::vector<uint8_t> bytes = EncodeRequest(request);
       ++p.counters.telegrams_sent;
+      if (p.options.wire_trace && p.options.wire_trace->load(std::memory_order_relaxed)) {
+        wire::Trace(p.options.name, "linmot", "tx", bytes);
+      }
       if (absl::Status s = socket_.SendTo(p.options.remote, bytes); !s.ok()) {
         ++p.counters.send_errors;
         log::Debug("linudp_send_error",
@@ -223,6 +227,9 @@ void Session::HandleDatagramLocked(const transport::Datagram& d, TimePoint now) 
     return;
   }
   Peer& p = peers_.at(route->second);
+  if (p.options.wire_trace && p.options.wire_trace->load(std::memory_order_relaxed)) {
+    wire::Trace(p.options.name, "linmot", "rx", d.bytes);
+  }
   if (!p.outstanding) {
     ++p.counters.late;
     log::Debug("linudp_late",
@@ -258,6 +265,9 @@ void Session::HandleDatagramLocked(const transport::Datagram& d, TimePoint now) 
   p.outstanding = false;
   p.consecutive_timeouts = 0;
   ++p.counters.replies;
+  // Sent at reply_deadline - reply_timeout (ServiceLocked): the telegram's round trip.
+  wire::ObserveRoundTrip("linmot", p.options.name,
+                         now - (p.reply_deadline - p.options.reply_timeout));
   SetLinkLocked(p, LinkState::kOnline);
   p.peer->OnReply(*reply, now);
 }

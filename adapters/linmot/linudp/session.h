@@ -3,6 +3,7 @@
 // Bytes <-> structs stay in codec.h; what goes into a telegram is the peer's job.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <map>
@@ -68,6 +69,9 @@ struct PeerOptions {
   std::chrono::milliseconds cycle{5};
   std::chrono::milliseconds reply_timeout{50};
   int lost_after_timeouts = 5;
+  // Wire trace switch (Drive::SetWireTrace): while it reads true, every telegram to and from
+  // this drive is logged as hex (adapters/core/wire_observer.h). Null: never.
+  std::shared_ptr<const std::atomic<bool>> wire_trace;
 };
 
 using PeerId = uint64_t;
