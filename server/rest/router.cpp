@@ -410,6 +410,7 @@ std::unique_ptr<grpc::ClientContext> MakeContext(const HttpRequest& request) {
     ctx->AddMetadata("idempotency-key", request.idempotency_key);
   }
   if (!request.client_cn.empty()) ctx->AddMetadata("x-drivegw-client-cn-bin", request.client_cn);
+  if (!request.lease_id.empty()) ctx->AddMetadata("x-drivegw-lease", request.lease_id);
   return ctx;
 }
 

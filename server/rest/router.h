@@ -37,6 +37,9 @@ struct HttpRequest {
   // binary metadata x-drivegw-client-cn-bin (a CN may be any UTF-8; trusted only on in-process
   // calls, decision 023).
   std::string client_cn;
+  // X-Drivegw-Lease header ("" if none): the control lease id the caller presents, forwarded as
+  // the metadata x-drivegw-lease (decision 019).
+  std::string lease_id;
 };
 
 struct HttpResponse {

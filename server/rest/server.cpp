@@ -294,7 +294,8 @@ class Session final : public SessionBase {
                         Str(req[http::field::if_match]),
                         Str(req[http::field::authorization]),
                         Str(req["Idempotency-Key"]),
-                        client_cn_};
+                        client_cn_,
+                        Str(req["X-Drivegw-Lease"])};
     const uint64_t id = slot.id;
     slots_.push_back(std::move(slot));
     UpdateIdleDeadline();
