@@ -38,7 +38,7 @@ class DriveEventRecorder {
   // Recorded per drive and window before further events are only counted (a flapping link must
   // not flood the log); the count is written as "drive.events_suppressed" when the window ends.
   static constexpr int kMaxEventsPerWindow = 20;
-  static constexpr std::chrono::seconds kWindow{10};
+  static constexpr std::chrono::seconds kWindow{60};
 
   // Starts one watcher thread per drive; each sleeps in Drive::WaitForStatus between
   // snapshots. `audit` (not null) must outlive the recorder; drives stay alive through the
