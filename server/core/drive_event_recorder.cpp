@@ -79,6 +79,24 @@ std::vector<DriveEvent> DriveEventsBetween(const DriveStatus& before, const Driv
   return out;
 }
 
+int64_t EventBudget::Roll(TimePoint now) {
+  if (now - window_start_ < window_) return 0;
+  const int64_t suppressed = suppressed_;
+  window_start_ = now;
+  taken_ = 0;
+  suppressed_ = 0;
+  return suppressed;
+}
+
+bool EventBudget::Take() {
+  if (taken_ >= max_) {
+    ++suppressed_;
+    return false;
+  }
+  ++taken_;
+  return true;
+}
+
 DriveEventRecorder::DriveEventRecorder(std::vector<std::shared_ptr<Drive>> drives,
                                        storage::AuditLog* audit)
     : audit_(audit) {
@@ -112,9 +130,7 @@ void DriveEventRecorder::Watch(const std::shared_ptr<Drive>& drive) {
   who.source_address = drive->endpoint();
   who.transport = "drive";
   DriveStatus last;  // a drive starts OFFLINE (DriveStatus's default)
-  auto window_start = std::chrono::steady_clock::now();
-  int in_window = 0;
-  int64_t suppressed = 0;
+  EventBudget budget(kMaxEventsPerWindow, kWindow, std::chrono::steady_clock::now());
   while (!stop_.load()) {
     DriveStatus s = drive->WaitForStatus(last.sequence, std::chrono::steady_clock::now() + kSlice);
     if (stop_.load()) break;
@@ -123,27 +139,17 @@ void DriveEventRecorder::Watch(const std::shared_ptr<Drive>& drive) {
       if (drive->lifecycle() == Lifecycle::kInactive && !Sleep(kSlice)) break;
       continue;
     }
-    const auto now = std::chrono::steady_clock::now();
-    if (now - window_start >= kWindow) {
-      if (suppressed > 0) {
-        WriteAudit(audit_, who,
-                   AuditWrite{name, "drive.events_suppressed",
-                              nlohmann::json{{"suppressed", suppressed},
-                                             {"window_s", kWindow.count()},
-                                             {"max_per_window", kMaxEventsPerWindow}}
-                                  .dump(),
-                              absl::OkStatus(), "", "", ""});
-      }
-      window_start = now;
-      in_window = 0;
-      suppressed = 0;
+    if (const int64_t suppressed = budget.Roll(std::chrono::steady_clock::now()); suppressed > 0) {
+      WriteAudit(audit_, who,
+                 AuditWrite{name, "drive.events_suppressed",
+                            nlohmann::json{{"suppressed", suppressed},
+                                           {"window_s", kWindow.count()},
+                                           {"max_per_window", kMaxEventsPerWindow}}
+                                .dump(),
+                            absl::OkStatus(), "", "", ""});
     }
     for (DriveEvent& e : DriveEventsBetween(last, s)) {
-      if (in_window >= kMaxEventsPerWindow) {
-        ++suppressed;
-        continue;
-      }
-      ++in_window;
+      if (!budget.Take()) continue;
       // The recording worked: OK as result; the drive's code and text are in request/message.
       WriteAudit(audit_, who,
                  AuditWrite{name, e.action, e.request_json, absl::OkStatus(), e.before_json,

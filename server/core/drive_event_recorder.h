@@ -33,6 +33,28 @@ struct DriveEvent {
 // The events between `before` and `after` (pure; the recorder and its tests share it).
 std::vector<DriveEvent> DriveEventsBetween(const DriveStatus& before, const DriveStatus& after);
 
+// At most `max_per_window` events per window of `window` (steady time passed in, so it is
+// testable without waiting); the rest are counted for one "drive.events_suppressed" entry.
+class EventBudget {
+ public:
+  using TimePoint = std::chrono::steady_clock::time_point;
+  EventBudget(int max_per_window, std::chrono::steady_clock::duration window, TimePoint start)
+      : max_(max_per_window), window_(window), window_start_(start) {}
+
+  // Called once per observed snapshot before its events: when the window has ended, starts a
+  // new one and returns how many events the old one suppressed (0 = nothing to record).
+  int64_t Roll(TimePoint now);
+  // One event: true = record it, false = counted as suppressed.
+  bool Take();
+
+ private:
+  int max_;
+  std::chrono::steady_clock::duration window_;
+  TimePoint window_start_;
+  int taken_ = 0;
+  int64_t suppressed_ = 0;
+};
+
 class DriveEventRecorder {
  public:
   // Recorded per drive and window before further events are only counted (a flapping link must

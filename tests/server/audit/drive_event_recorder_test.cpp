@@ -68,6 +68,20 @@ TEST(DriveEventsBetweenTest, EachKindOfChange) {
   EXPECT_EQ(ev[0].action, "drive.offline");
 }
 
+TEST(EventBudgetTest, CapsEachWindowAndReportsTheSuppressedCountWhenItEnds) {
+  const auto t0 = std::chrono::steady_clock::time_point{} + 1h;
+  EventBudget budget(3, 60s, t0);
+  EXPECT_EQ(budget.Roll(t0), 0);
+  int taken = 0;
+  for (int i = 0; i < 10; ++i) taken += budget.Take() ? 1 : 0;
+  EXPECT_EQ(taken, 3);
+  EXPECT_EQ(budget.Roll(t0 + 59s), 0);  // same window
+  EXPECT_FALSE(budget.Take());
+  EXPECT_EQ(budget.Roll(t0 + 60s), 8);  // 7 + 1 suppressed, reported once
+  EXPECT_TRUE(budget.Take());
+  EXPECT_EQ(budget.Roll(t0 + 200s), 0);
+}
+
 class DriveEventRecorderTest : public storage::testing::AuditDbTest {
  protected:
   void SetUp() override {
