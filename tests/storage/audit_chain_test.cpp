@@ -82,6 +82,14 @@ TEST_F(AuditChainTest, Append_LinksEveryEntryFromTheGenesisAnchor) {
   EXPECT_EQ(v.anchor, "genesis");
 }
 
+TEST_F(AuditChainTest, EmptyLog_VerifiesWithNothingToCheck) {
+  const AuditVerifyReport v = VerifyOrDie();
+  EXPECT_TRUE(v.ok);
+  EXPECT_EQ(v.verified_entries, 0);
+  EXPECT_EQ(v.first_seq, 0);
+  EXPECT_TRUE(v.head_hash.empty());
+}
+
 TEST_F(AuditChainTest, BeforeAndAfter_StoredAndHashed) {
   AuditEntry e = MakeEntry("x1", "WriteParameter");
   e.before_json = R"({"value":1})";
