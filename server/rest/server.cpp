@@ -411,10 +411,9 @@ class Session final : public SessionBase {
     auto sr = std::make_shared<http::response_serializer<http::empty_body>>(*res);
     log::Debug("rest.stream", log::Fields().Add("peer", peer_).Add("target", s.target));
     StartWriteDeadline();
-    http::async_write_header(stream_, *sr,
-                             [self = Self(), res, sr](error_code ec, size_t) {
-                               self->OnWritten(ec, /*done=*/false, false);
-                             });
+    http::async_write_header(stream_, *sr, [self = Self(), res, sr](error_code ec, size_t) {
+      self->OnWritten(ec, /*done=*/false, false);
+    });
   }
 
   void WriteBody(Slot& s, std::shared_ptr<std::string> line, bool last) {
@@ -498,9 +497,9 @@ class Session final : public SessionBase {
   void Drain(std::shared_ptr<std::array<char, 4096>> buf, size_t total) {
     Socket().async_read_some(net::buffer(*buf),
                              [self = Self(), buf, total](error_code ec, size_t n) {
-                              if (ec || total + n > kLingerBytes) return self->CloseSocket();
-                              self->Drain(buf, total + n);
-                            });
+                               if (ec || total + n > kLingerBytes) return self->CloseSocket();
+                               self->Drain(buf, total + n);
+                             });
   }
 
   void CloseSocket() {
