@@ -141,7 +141,7 @@ TEST_F(TlsGatewayTest, Https_TrustedCa_ServesAndUntrustedFails) {
   auto rogue = Curl(port, "/v1/drives", "--cacert " + Quote(P("rogue-ca.pem")));
   EXPECT_EQ(rogue.exit_code, 60) << rogue.output;
 
-  // HTTP/1.0 ends with "Connection: close": the server's close_notify ends the body cleanly.
+  // HTTP/1.0: the response ends with "Connection: close" (the TLS close path of the session).
   auto http10 = Curl(port, "/v1/drives", Trust() + " --http1.0");
   EXPECT_EQ(http10.exit_code, 0) << http10.output;
   EXPECT_NE(http10.output.find("HTTP 200"), std::string::npos) << http10.output;
