@@ -4,6 +4,7 @@
 // of kind "RunCurve" that ends DONE when the motor stands at the curve's end point.
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
@@ -147,11 +148,20 @@ void TrinamicDrive::CurveRunner::Run() {
   }
   // The end: a sample sent after the last word shows the motor standing (action 0).
   const int32_t end = legs_.back().target;
-  const auto deadline = At(duration_s_) + drive_->config().timeouts.request;
+  // The deadline runs from the curve's end, and again from every sample that shows the motor
+  // still moving: a loaded host (or controller) may finish the last leg late, a motor that stands
+  // away from the end point or stalls is reported after timeouts.request without progress.
+  auto deadline = At(duration_s_) + drive_->config().timeouts.request;
+  std::optional<int32_t> last_pos;
   std::unique_lock lock(drive_->mu_);
   for (;;) {
     if (OverLocked()) return;
     const auto& s = drive_->sample_;
+    if (s && s->sent > last_word_ && s->action != kActionInactive &&
+        (!last_pos || *last_pos != s->posact)) {
+      last_pos = s->posact;
+      deadline = std::max(deadline, SessionClock::now() + drive_->config().timeouts.request);
+    }
     if (s && s->sent > last_word_ && s->action == kActionInactive) {
       if (std::abs(int64_t{s->posact} - end) <= tolerance_) {
         EndLocked(CommandState::kDone,
@@ -164,12 +174,13 @@ void TrinamicDrive::CurveRunner::Run() {
       return;
     }
     if (SessionClock::now() > deadline) {
-      EndLocked(CommandState::kError,
-                absl::StrCat("end point ", std::to_string(end), " microsteps not reached within ",
-                             std::to_string(drive_->config().timeouts.request.count()),
-                             " ms (timeouts.request) after the curve's end: motor at ",
-                             s ? std::to_string(s->posact) : std::string("?"), ", ",
-                             s ? ActionText(s->action) : std::string("no sample")));
+      EndLocked(
+          CommandState::kError,
+          absl::StrCat("end point ", std::to_string(end), " microsteps not reached within ",
+                       std::to_string(drive_->config().timeouts.request.count()),
+                       " ms (timeouts.request) without progress after the curve's end: motor at ",
+                       s ? std::to_string(s->posact) : std::string("?"), ", ",
+                       s ? ActionText(s->action) : std::string("no sample")));
       return;
     }
     drive_->cv_.wait_until(lock, std::min(deadline, SessionClock::now() + 50ms));
