@@ -21,6 +21,7 @@
 #include "adapters/stober/factory.h"
 #include "adapters/trinamic/factory.h"
 #include "server/config/audit_config.h"
+#include "server/config/auth_config.h"
 #include "server/config/can_buses.h"
 #include "server/config/can_config.h"
 #include "server/config/section.h"
@@ -391,12 +392,19 @@ absl::StatusOr<GatewayConfig> ParseDocument(const YAML::Node& doc,
                                             std::span<const std::string_view> families) {
   GatewayConfig cfg;
   Errors errors;
-  const Section root(doc, "", {"listen", "data_dir", "drives", "tls", "audit"}, errors);
+  const Section root(doc, "", {"listen", "data_dir", "drives", "tls", "audit", "shutdown_timeout_s",
+                                   "auth", "insecure"},
+                     errors);
   if (!doc.IsNull() && !doc.IsMap()) return errors.ToStatus();
   ParseListen(root, cfg.listen);
+  internal::ParseAuth(root, cfg.auth);
+  internal::ApplyAuthToListen(root, cfg.auth, cfg.listen.grpc, cfg.listen.http);
   internal::ParseAudit(root, cfg.audit);
   if (root.String("data_dir", cfg.data_dir) && cfg.data_dir.empty()) {
     errors.Add("data_dir", "must not be empty", *root.Get("data_dir"));
+  }
+  if (int64_t t = cfg.shutdown_timeout_s; root.Int("shutdown_timeout_s", 1, 300, t)) {
+    cfg.shutdown_timeout_s = static_cast<int>(t);
   }
   if (root.Has("drives")) {
     cfg.demo = false;

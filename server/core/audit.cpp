@@ -5,6 +5,7 @@
 
 #include "adapters/core/log.h"
 #include "google/protobuf/util/json_util.h"
+#include "server/ops/metrics.h"
 #include "storage/audit_log.h"
 
 namespace drivegw::server {
@@ -31,7 +32,11 @@ void WriteAudit(storage::AuditLog* audit, const CallContext& c, const AuditWrite
   e.result_message = w.message.empty() ? std::string(w.result.message()) : w.message;
   e.before_json = w.before_json;
   e.after_json = w.after_json;
-  if (absl::Status s = audit->Append(e); !s.ok()) {
+  const auto started = std::chrono::steady_clock::now();
+  const absl::Status appended = audit->Append(e);
+  ops::ObserveAuditWrite(  // /metrics: drivegw_audit_write_seconds (decision 021)
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+  if (const absl::Status& s = appended; !s.ok()) {
     log::Error(
         "audit_append_failed",
         log::Fields().Add("drive", w.drive).Add("action", w.action).Add("error", s.message()));

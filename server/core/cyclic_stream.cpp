@@ -10,6 +10,7 @@
 #include "server/core/convert.h"
 #include "server/core/cyclic_validation.h"
 #include "server/core/errors.h"
+#include "server/ops/metrics.h"
 
 namespace drivegw::server {
 namespace {
@@ -98,6 +99,8 @@ absl::StatusOr<v1::CyclicStreamSummary> CyclicSetpointStream::End(absl::Status r
   summary.set_name(DriveResourceName(name));
   *summary.mutable_command() = ToProto(name, closed.ok() ? *closed : stream_->command());
   *summary.mutable_stats() = ToProto(stream_->stats());
+  const CyclicStats st = stream_->stats();  // /metrics: cycle lateness (decision 021)
+  ops::ObserveCyclicStream(name, drive_.config().family, st.late, st.missing, st.sent);
   summary.set_state(ToProto(drive_.GetStatus().state));
   WriteAudit(audit_, context_, name, kCyclicAuditAction, CyclicAuditJson(first_, &summary), reason);
   if (reason.ok()) return summary;

@@ -267,4 +267,19 @@ void ObserveAuditWrite(double seconds) noexcept {
   h.Observe(seconds);
 }
 
+void ObserveCyclicStream(const std::string& drive, const std::string& family, uint64_t late,
+                         uint64_t missing, uint64_t sent) {
+  Registry& r = DefaultRegistry();
+  const Labels l = {{"drive", drive}, {"family", family}};
+  r.GetCounter("drivegw_cyclic_setpoints_late_total",
+               "Cyclic set points that arrived after their cycle had gone (dropped).", l)
+      .Inc(static_cast<double>(late));
+  r.GetCounter("drivegw_cyclic_cycles_missing_total",
+               "Cycles of a cyclic stream without a fresh set point (the drive extrapolated).", l)
+      .Inc(static_cast<double>(missing));
+  r.GetCounter("drivegw_cyclic_cycles_sent_total",
+               "Cycles of a cyclic stream that carried a fresh set point.", l)
+      .Inc(static_cast<double>(sent));
+}
+
 }  // namespace drivegw::ops

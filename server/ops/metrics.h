@@ -131,4 +131,9 @@ std::string FormatValue(double v);
 // Audit trail write latency (WriteAudit, server/core/audit.cpp): one observation per append.
 void ObserveAuditWrite(double seconds) noexcept;
 
+// Cycle lateness of a cyclic set-point stream (server/core/cyclic_stream.cpp, at its end): set
+// points that missed their cycle, cycles without a fresh one, cycles that carried one.
+void ObserveCyclicStream(const std::string& drive, const std::string& family, uint64_t late,
+                         uint64_t missing, uint64_t sent);
+
 }  // namespace drivegw::ops

@@ -73,7 +73,7 @@ HttpResponse TextResponse(int status, std::string body) {
 
 // The body of an error response: the google.rpc.Status the server attached (with its Any
 // details, e.g. google.rpc.BadRequest), else {code, message}.
-HttpResponse ErrorFromGrpc(const grpc::Status& status) {
+HttpResponse ErrorBodyFromGrpc(const grpc::Status& status) {
   const int code = static_cast<int>(status.error_code());
   const int http = HttpStatusForGrpcCode(code);
   if (!status.error_details().empty()) {
@@ -94,6 +94,14 @@ HttpResponse ErrorFromGrpc(const grpc::Status& status) {
     }
   }
   return ErrorResponse(http, code, status.error_message());
+}
+
+// ErrorBodyFromGrpc; a 401 also names the scheme to use (RFC 7235 §3.1, RFC 6750 §3; decision
+// 015).
+HttpResponse ErrorFromGrpc(const grpc::Status& status) {
+  HttpResponse r = ErrorBodyFromGrpc(status);
+  if (r.status == 401) r.headers.emplace_back("WWW-Authenticate", "Bearer realm=\"drivegw\"");
+  return r;
 }
 
 // Field lookup by proto name ("max_rate_hz") or JSON name ("maxRateHz").
@@ -726,6 +734,19 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
       return;
     }
     const std::string& method = request.method;
+    if (auto fixed = options_.fixed_routes.find(std::string(path));
+        fixed != options_.fixed_routes.end()) {
+      if (method != "GET") {
+        auto r = ErrorResponse(
+            405, kUnimplemented,
+            absl::StrCat(method, " ", Av(path), ": method not allowed (allowed: GET)"));
+        r.headers.emplace_back("Allow", "GET");
+        sink->OnResponse(std::move(r));
+      } else {
+        sink->OnResponse(fixed->second());
+      }
+      return;
+    }
     if (path == "/openapi.json" || path == "/healthz") {
       if (method != "GET") {
         auto r = ErrorResponse(

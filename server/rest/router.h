@@ -4,6 +4,8 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <utility>
@@ -98,6 +100,9 @@ struct RouterOptions {
   std::string static_dir;                         // served at GET /... when set
   std::chrono::milliseconds call_timeout{30000};  // deadline of unary calls
   std::chrono::milliseconds health_timeout{1000};
+  // Fixed GET routes answered inline without gRPC (issue 7: /metrics, /readyz; decision 021);
+  // other methods on them get 405. Handlers must be quick and thread-safe.
+  std::map<std::string, std::function<HttpResponse()>> fixed_routes;
 };
 
 // One HTTP route derived from a google.api.http rule (binding).

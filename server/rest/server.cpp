@@ -612,6 +612,7 @@ absl::StatusOr<std::unique_ptr<RestServer>> RestServer::Start(RestOptions option
   router_options.openapi_json = options.openapi_json;
   router_options.more_services = options.more_services;
   router_options.static_dir = options.static_dir;
+  router_options.fixed_routes = options.fixed_routes;
   auto router = Router::Create(std::move(router_options));
   if (!router.ok()) return router.status();
 

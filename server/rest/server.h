@@ -5,12 +5,15 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "server/rest/router.h"
 #include "server/rest/tls_context.h"
 
 namespace grpc {
@@ -35,6 +38,8 @@ struct RestOptions {
   std::optional<RestTls> tls;
   // Deadline of the TLS handshake once the connection is accepted.
   std::chrono::seconds handshake_timeout{10};
+  // RouterOptions::fixed_routes (GET /metrics, /readyz; decision 021).
+  std::map<std::string, std::function<HttpResponse()>> fixed_routes;
 };
 
 class RestServer {

@@ -127,6 +127,16 @@ TEST(ObserveAuditWrite_DefaultRegistry, HistogramServed) {
   EXPECT_EQ(CheckHistograms(e), "");
 }
 
+TEST(ObserveCyclicStream_DefaultRegistry, LatenessCountersAddUp) {
+  ObserveCyclicStream("s9", "stober", 2, 3, 40);
+  ObserveCyclicStream("s9", "stober", 1, 0, 10);
+  const auto e = ParseExposition(DefaultRegistry().Render());
+  EXPECT_EQ(e.Sum("drivegw_cyclic_setpoints_late_total", {{"drive", "s9"}, {"family", "stober"}}),
+            3);
+  EXPECT_EQ(e.Sum("drivegw_cyclic_cycles_missing_total", {{"drive", "s9"}}), 3);
+  EXPECT_EQ(e.Sum("drivegw_cyclic_cycles_sent_total", {{"drive", "s9"}}), 50);
+}
+
 TEST(Readiness_StorageThenDrives_NotReadyUntilAllTried, ThenNotReadyAtShutdown) {
   Readiness r;
   EXPECT_EQ(r.Check().message(), "storage not open");
