@@ -22,11 +22,15 @@
 #include "server/core/audit_service.h"
 #include "server/core/drive_event_recorder.h"
 #include "server/core/parameter_set_service.h"
+#include "server/auth/authenticator.h"
+#include "server/auth/token_service.h"
 #include "server/grpc/audit_service_grpc.h"
+#include "server/grpc/call_auth.h"
 #include "server/grpc/curve_set_service_grpc.h"
 #include "server/grpc/drive_service_grpc.h"
 #include "server/grpc/parameter_set_service_grpc.h"
 #include "server/grpc/peer_identity.h"
+#include "server/grpc/token_service_grpc.h"
 #include "server/grpc/worker_pool.h"
 #include "server/rest/server.h"
 #include "sim/linmot/server.h"
@@ -39,6 +43,7 @@
 #include "storage/db.h"
 #include "storage/migrations.h"
 #include "storage/parameter_set_repo.h"
+#include "storage/token_repo.h"
 
 namespace drivegw::server {
 
@@ -121,6 +126,12 @@ struct Gateway::Impl {
   const Clock* clock = nullptr;
   std::unique_ptr<storage::Db> db;
   std::unique_ptr<storage::AuditLog> audit;
+  // Authentication (issue 7, decision 015): the one enforcement point every service's calls
+  // pass; declared before the worker pool and the services that use it.
+  std::unique_ptr<storage::TokenRepo> tokens;
+  std::unique_ptr<auth::Authenticator> authenticator;
+  std::unique_ptr<CallAuth> call_auth;
+  std::unique_ptr<auth::TokenServiceCore> token_core;
   std::map<std::string, std::unique_ptr<sim::linmot::LinMotServer>> sims;
   std::map<std::string, std::unique_ptr<sim::linmot_devicenet::LinMotDnServer>> dn_sims;
   std::unique_ptr<sim::trinamic::TrinamicServer> trinamic_sim;
@@ -145,6 +156,7 @@ struct Gateway::Impl {
   std::unique_ptr<storage::CurveSetRepo> curve_sets;
   std::unique_ptr<CurveSetServiceCore> curve_set_core;
   std::unique_ptr<CurveSetServiceGrpc> curve_set_service;
+  std::unique_ptr<TokenServiceGrpc> token_service;
   std::unique_ptr<grpc::Server> grpc_server;
   int grpc_port = 0;
   std::unique_ptr<rest::RestServer> rest;
@@ -162,6 +174,43 @@ absl::StatusOr<std::pair<std::string, uint16_t>> SplitHostPort(const std::string
   return std::make_pair(host, static_cast<uint16_t>(port));
 }
 
+namespace {
+
+// Tokens, the authenticator (with tls.client_principals as certificate principals) and the
+// enforcement point; with auth disabled, WARN lines saying so (main.cpp adds a banner).
+absl::Status StartAuth(const config::GatewayConfig& cfg, Gateway::Impl& impl) {
+  impl.tokens = std::make_unique<storage::TokenRepo>(*impl.db);
+  auth::AuthOptions options;
+  options.enabled = cfg.auth.enabled;
+  if (cfg.tls) {
+    for (const config::TlsClientPrincipal& p : cfg.tls->client_principals) {
+      const std::optional<auth::Role> role = auth::ParseRole(p.role);
+      if (!role) {
+        return absl::InvalidArgumentError(absl::StrCat("tls.client_principals: role '", p.role,
+                                                       "' of '", p.common_name, "' is not a role"));
+      }
+      options.certificates.push_back({p.common_name, p.principal, *role});
+    }
+  }
+  impl.authenticator = std::make_unique<auth::Authenticator>(std::move(options), impl.tokens.get());
+  impl.call_auth = std::make_unique<CallAuth>(*impl.authenticator, impl.audit.get());
+  impl.token_core = std::make_unique<auth::TokenServiceCore>(*impl.tokens, impl.audit.get());
+  if (!cfg.auth.enabled) {
+    log::Warn("auth_disabled", log::Fields()
+                                   .Add("principal", "anonymous")
+                                   .Add("role", "admin")
+                                   .Add("insecure", cfg.auth.insecure ? "true" : "false")
+                                   .Add("grpc", cfg.listen.grpc)
+                                   .Add("http", cfg.listen.http));
+    log::Warn("auth_disabled", log::Fields().Add(
+                                   "hint", "set auth.enabled: true and create tokens with "
+                                           "'drivegw token create' (docs/config.md)"));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
 Gateway::Gateway(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Gateway::~Gateway() { Stop(); }
 
@@ -169,6 +218,8 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   auto impl = std::make_unique<Impl>();
   impl->clock = &clock;
   config::GatewayConfig& cfg = options.config;
+  // Also for configurations built in code: no open gateway beyond loopback (decision 015).
+  DGW_RETURN_IF_ERROR(config::CheckListenExposure(cfg.auth, cfg.listen.grpc, cfg.listen.http));
 
   // Storage first: a gateway that cannot audit does not start.
   std::error_code ec;
@@ -181,6 +232,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   impl->audit = std::make_unique<storage::AuditLog>(*impl->db);
   DGW_RETURN_IF_ERROR(impl->audit->SetRetention(
       {cfg.audit.max_entries, cfg.audit.warn_at_percent, cfg.audit.prune_to_percent}));
+  DGW_RETURN_IF_ERROR(StartAuth(cfg, *impl));
 
   // Demo mode: embedded simulated drives on loopback, and drive configs pointing at them.
   std::vector<DriveConfig> drive_configs = cfg.drives;
@@ -266,7 +318,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   }
   impl->core = std::make_unique<DriveServiceCore>(impl->drives, impl->audit.get());
   impl->pool = std::make_unique<WorkerPool>(kWorkerThreads);
-  impl->service = std::make_unique<DriveServiceGrpc>(*impl->core, *impl->pool);
+  impl->service = std::make_unique<DriveServiceGrpc>(*impl->core, *impl->pool, *impl->call_auth);
   impl->catalogues = {linmot::linudp::LinMotParameterCatalogue(),
                       linmot::devicenet::LinMotDevicenetParameterCatalogue(),
                       trinamic::TrinamicParameterCatalogue(), stober::StoberParameterCatalogue()};
@@ -275,16 +327,19 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   impl->parameter_set_core = std::make_unique<ParameterSetServiceCore>(
       *impl->parameter_sets, *impl->applier, impl->catalogues, impl->drives, impl->audit.get());
   impl->parameter_set_service =
-      std::make_unique<ParameterSetServiceGrpc>(*impl->parameter_set_core, *impl->pool);
+      std::make_unique<ParameterSetServiceGrpc>(*impl->parameter_set_core, *impl->pool,
+                                                *impl->call_auth);
   impl->curve_sets = std::make_unique<storage::CurveSetRepo>(*impl->db);
   impl->curve_set_core =
       std::make_unique<CurveSetServiceCore>(*impl->curve_sets, impl->drives, impl->audit.get());
   impl->curve_set_service =
-      std::make_unique<CurveSetServiceGrpc>(*impl->curve_set_core, *impl->pool);
+      std::make_unique<CurveSetServiceGrpc>(*impl->curve_set_core, *impl->pool, *impl->call_auth);
+  impl->token_service =
+      std::make_unique<TokenServiceGrpc>(*impl->token_core, *impl->pool, *impl->call_auth);
 
   impl->drive_events = std::make_unique<DriveEventRecorder>(impl->drives, impl->audit.get());
   impl->audit_core = std::make_unique<AuditServiceCore>(*impl->audit);
-  impl->audit_service = std::make_unique<AuditServiceGrpc>(*impl->audit_core, *impl->pool);
+  impl->audit_service = std::make_unique<AuditServiceGrpc>(*impl->audit_core, *impl->pool, *impl->call_auth);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -296,6 +351,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   builder.RegisterService(impl->service.get());
   builder.RegisterService(impl->parameter_set_service.get());
   builder.RegisterService(impl->curve_set_service.get());
+  builder.RegisterService(impl->token_service.get());
   builder.RegisterService(impl->audit_service.get());
   impl->grpc_server = builder.BuildAndStart();
   if (impl->grpc_server == nullptr || impl->grpc_port == 0) {
@@ -309,6 +365,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   ro.channel = impl->grpc_server->InProcessChannel(grpc::ChannelArguments());
   ro.openapi_json = std::string(kOpenApiJson);
   ro.more_services = {"drivegw.v1.ParameterSetService", "drivegw.v1.CurveSetService"};
+  ro.more_services.push_back("drivegw.v1.TokenService");
   ro.more_services.push_back("drivegw.v1.AuditService");
   ro.static_dir = options.static_dir;
   if (cfg.tls) {
@@ -325,6 +382,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
                                    .Add("http_port", impl->rest->port())
                                    .Add("drives", impl->drives.size())
                                    .Add("demo", cfg.demo ? "true" : "false")
+                                   .Add("auth", cfg.auth.enabled ? "on" : "off")
                                    .Add("tls", !cfg.tls                         ? "off"
                                                : cfg.tls->client_ca_pem.empty() ? "on"
                                                : cfg.tls->require_client_cert   ? "mtls-required"

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "adapters/core/log.h"
+#include "server/cli/token_cli.h"
 #include "server/config/config.h"
 #include "server/gateway.h"
 
@@ -13,6 +14,7 @@ namespace {
 void Usage() {
   std::fprintf(stderr,
                "usage: drivegw [--config FILE]\n"
+               "       drivegw token create|list|revoke ...   (API tokens; `drivegw token` for help)\n"
                "  Without --config (or with a config that has no `drives:`), drivegw starts its\n"
                "  embedded demo: simulated LinMot drives on loopback UDP, a LinMot DeviceNet\n"
                "  drive on the user-space CAN bus, two axes of a Trinamic SIXpack on a pty and\n"
@@ -20,9 +22,26 @@ void Usage() {
                "  See docs/config.md.\n");
 }
 
+// Issue 7: a gateway without authentication says so loudly (the log has WARN lines too).
+void PrintNoAuthBanner(bool insecure) {
+  std::fprintf(stderr,
+               "\n"
+               "  ****************************************************************************\n"
+               "  *  AUTHENTICATION IS DISABLED (auth.enabled: false)                        *\n"
+               "  *  Every call runs as principal 'anonymous' with role ADMIN.               *\n"
+               "%s"
+               "  *  Enable it: auth: {enabled: true} and `drivegw token create` (docs/config.md) *\n"
+               "  ****************************************************************************\n\n",
+               insecure ? "  *  insecure: true -- the gateway may be reachable from other hosts!       *\n"
+                        : "  *  Listening on loopback only.                                             *\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (drivegw::cli::IsTokenCommand(argc, argv)) {
+    return drivegw::cli::RunTokenCommand(argc - 2, argv + 2, stdout, stderr);
+  }
   std::string config_path;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--config") == 0 && i + 1 < argc) {
@@ -45,6 +64,8 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  const drivegw::config::AuthConfig auth = cfg->auth;  // for the banner after start
+
   // Block the stop signals in every thread; the main thread waits for them below.
   sigset_t signals;
   sigemptyset(&signals);
@@ -63,6 +84,7 @@ int main(int argc, char** argv) {
   }
   std::fprintf(stderr, "drivegw: gRPC on :%u, HTTP on :%u — Ctrl-C stops\n", (*gateway)->grpc_port(),
                (*gateway)->http_port());
+  if (!auth.enabled) PrintNoAuthBanner(auth.insecure);
 
   int sig = 0;
   sigwait(&signals, &sig);

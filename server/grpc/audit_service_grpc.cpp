@@ -7,24 +7,15 @@
 #include <mutex>
 #include <thread>
 
-#include "server/grpc/drive_service_grpc.h"  // ContextFrom
+#include "server/grpc/call_auth.h"
 #include "server/grpc/status_mapping.h"
 
 namespace drivegw::server {
 namespace {
 
-// Runs fn(ctx) on the worker pool and finishes from there.
-template <typename Resp, typename Fn>
-grpc::ServerUnaryReactor* Offload(WorkerPool& pool, grpc::CallbackServerContext* ctx, Resp* resp,
-                                  Fn fn) {
-  auto* reactor = ctx->DefaultReactor();
-  CallContext cc = ContextFrom(*ctx);
-  pool.Post([reactor, resp, fn = std::move(fn), cc = std::move(cc)]() mutable {
-    auto result = fn(cc);
-    if (result.ok()) *resp = *std::move(result);
-    reactor->Finish(ToGrpcStatus(result.status()));
-  });
-  return reactor;
+// The full method name the role table knows this service's `method` by.
+std::string RpcName(const char* method) {
+  return FullMethod(v1::AuditService::service_full_name(), method);
 }
 
 // Server stream of audit events: a producer thread runs the core's loop and hands each event
@@ -97,20 +88,22 @@ class EventStream final : public grpc::ServerWriteReactor<v1::AuditEvent> {
 grpc::ServerUnaryReactor* AuditServiceGrpc::ListAuditEvents(grpc::CallbackServerContext* ctx,
                                                             const v1::ListAuditEventsRequest* req,
                                                             v1::ListAuditEventsResponse* resp) {
-  return Offload(pool_, ctx, resp,
+  return Offload(auth_, RpcName("ListAuditEvents"), pool_, ctx, resp,
                  [this, req](const CallContext& c) { return core_.ListAuditEvents(*req, c); });
 }
 
 grpc::ServerUnaryReactor* AuditServiceGrpc::VerifyAuditLog(grpc::CallbackServerContext* ctx,
                                                            const v1::VerifyAuditLogRequest* req,
                                                            v1::VerifyAuditLogResponse* resp) {
-  return Offload(pool_, ctx, resp,
+  return Offload(auth_, RpcName("VerifyAuditLog"), pool_, ctx, resp,
                  [this, req](const CallContext& c) { return core_.VerifyAuditLog(*req, c); });
 }
 
 grpc::ServerWriteReactor<v1::AuditEvent>* AuditServiceGrpc::WatchAuditEvents(
     grpc::CallbackServerContext* ctx, const v1::WatchAuditEventsRequest* req) {
-  CallContext cc = ContextFrom(*ctx);
+  absl::StatusOr<CallContext> authorised = auth_.Authorize(*ctx, RpcName("WatchAuditEvents"));
+  if (!authorised.ok()) return new RefusedWriter<v1::AuditEvent>(authorised.status());
+  CallContext cc = *std::move(authorised);
   return new EventStream(  // deletes itself in OnDone
       [this, r = *req, cc = std::move(cc)](const EventStream::Sink& sink,
                                            const std::function<bool()>& cancelled) {
@@ -120,7 +113,9 @@ grpc::ServerWriteReactor<v1::AuditEvent>* AuditServiceGrpc::WatchAuditEvents(
 
 grpc::ServerWriteReactor<v1::AuditEvent>* AuditServiceGrpc::ExportAuditEvents(
     grpc::CallbackServerContext* ctx, const v1::ExportAuditEventsRequest* req) {
-  CallContext cc = ContextFrom(*ctx);
+  absl::StatusOr<CallContext> authorised = auth_.Authorize(*ctx, RpcName("ExportAuditEvents"));
+  if (!authorised.ok()) return new RefusedWriter<v1::AuditEvent>(authorised.status());
+  CallContext cc = *std::move(authorised);
   return new EventStream(  // deletes itself in OnDone
       [this, r = *req, cc = std::move(cc)](const EventStream::Sink& sink,
                                            const std::function<bool()>& cancelled) {

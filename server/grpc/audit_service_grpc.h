@@ -5,13 +5,16 @@
 
 #include "drivegw/v1/audit.grpc.pb.h"
 #include "server/core/audit_service.h"
+#include "server/grpc/call_auth.h"
 #include "server/grpc/worker_pool.h"
 
 namespace drivegw::server {
 
 class AuditServiceGrpc final : public v1::AuditService::CallbackService {
  public:
-  AuditServiceGrpc(AuditServiceCore& core, WorkerPool& pool) : core_(core), pool_(pool) {}
+  // Every call is authorised by `auth` (decision 015).
+  AuditServiceGrpc(AuditServiceCore& core, WorkerPool& pool, const CallAuth& auth)
+      : core_(core), pool_(pool), auth_(auth) {}
 
   grpc::ServerUnaryReactor* ListAuditEvents(grpc::CallbackServerContext* ctx,
                                             const v1::ListAuditEventsRequest* req,
@@ -27,6 +30,7 @@ class AuditServiceGrpc final : public v1::AuditService::CallbackService {
  private:
   AuditServiceCore& core_;
   WorkerPool& pool_;
+  const CallAuth& auth_;
 };
 
 }  // namespace drivegw::server

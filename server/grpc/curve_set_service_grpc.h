@@ -5,6 +5,8 @@
 
 #include "drivegw/v1/curve_sets.grpc.pb.h"
 #include "server/core/curve_set_service.h"
+#include "server/core/idempotency.h"
+#include "server/grpc/call_auth.h"
 #include "server/grpc/worker_pool.h"
 
 namespace drivegw::server {
@@ -26,7 +28,11 @@ namespace drivegw::server {
 
 class CurveSetServiceGrpc final : public v1::CurveSetService::CallbackService {
  public:
-  CurveSetServiceGrpc(CurveSetServiceCore& core, WorkerPool& pool) : core_(core), pool_(pool) {}
+  // Every call is authorised by `auth` (decision 015); `idempotency` may be null (no idempotent
+  // retries, decision 020).
+  CurveSetServiceGrpc(CurveSetServiceCore& core, WorkerPool& pool, const CallAuth& auth,
+                      IdempotencyCache* idempotency = nullptr)
+      : core_(core), pool_(pool), auth_(auth), idempotency_(idempotency) {}
 
 #define DGW_CS_RPC(Method, Req, Resp)                                                    \
   grpc::ServerUnaryReactor* Method(grpc::CallbackServerContext* ctx, const v1::Req* req, \
@@ -37,6 +43,8 @@ class CurveSetServiceGrpc final : public v1::CurveSetService::CallbackService {
  private:
   CurveSetServiceCore& core_;
   WorkerPool& pool_;
+  const CallAuth& auth_;
+  IdempotencyCache* idempotency_;
 };
 
 }  // namespace drivegw::server

@@ -8,7 +8,6 @@
 #include <utility>
 
 #include "server/core/errors.h"
-#include "server/grpc/drive_service_grpc.h"
 #include "server/grpc/status_mapping.h"
 
 namespace drivegw::server {
@@ -17,8 +16,8 @@ namespace {
 class CyclicSetpointReactor final : public grpc::ServerReadReactor<v1::CyclicSetpointRequest> {
  public:
   CyclicSetpointReactor(DriveServiceCore& core, WorkerPool& pool, grpc::CallbackServerContext* ctx,
-                        v1::CyclicStreamSummary* response)
-      : core_(core), pool_(pool), ctx_(ctx), response_(response), cc_(ContextFrom(*ctx)) {
+                        v1::CyclicStreamSummary* response, CallContext cc)
+      : core_(core), pool_(pool), ctx_(ctx), response_(response), cc_(std::move(cc)) {
     StartRead(&message_);
   }
 
@@ -78,9 +77,9 @@ class CyclicSetpointReactor final : public grpc::ServerReadReactor<v1::CyclicSet
 
 grpc::ServerReadReactor<v1::CyclicSetpointRequest>* NewCyclicSetpointReactor(
     DriveServiceCore& core, WorkerPool& pool, grpc::CallbackServerContext* ctx,
-    v1::CyclicStreamSummary* response) {
+    v1::CyclicStreamSummary* response, CallContext cc) {
   // Raw new: the callback API hands ownership to gRPC until OnDone deletes the reactor.
-  return new CyclicSetpointReactor(core, pool, ctx, response);
+  return new CyclicSetpointReactor(core, pool, ctx, response, std::move(cc));
 }
 
 }  // namespace drivegw::server

@@ -10,9 +10,10 @@
 
 namespace drivegw::server {
 
-// Starts reading at once and deletes itself in OnDone (callback API ownership).
+// Starts reading at once and deletes itself in OnDone (callback API ownership). `cc` is the
+// call's authorised context (CallAuth::Authorize, decision 015).
 grpc::ServerReadReactor<v1::CyclicSetpointRequest>* NewCyclicSetpointReactor(
     DriveServiceCore& core, WorkerPool& pool, grpc::CallbackServerContext* ctx,
-    v1::CyclicStreamSummary* response);
+    v1::CyclicStreamSummary* response, CallContext cc);
 
 }  // namespace drivegw::server

@@ -6,43 +6,12 @@
 #include <mutex>
 #include <thread>
 
-#include "absl/strings/match.h"
+#include "server/grpc/call_auth.h"
 #include "server/grpc/cyclic_reactor.h"
 #include "server/grpc/status_mapping.h"
 
 namespace drivegw::server {
 namespace {
-
-std::string Metadata(const grpc::CallbackServerContext& ctx, const char* key) {
-  const auto& md = ctx.client_metadata();
-  auto it = md.find(key);
-  if (it == md.end()) return "";
-  return std::string(it->second.data(), it->second.size());
-}
-
-// Runs fn(ctx) inline and finishes the default reactor.
-template <typename Resp, typename Fn>
-grpc::ServerUnaryReactor* Inline(grpc::CallbackServerContext* ctx, Resp* resp, Fn fn) {
-  auto* reactor = ctx->DefaultReactor();
-  auto result = fn(ContextFrom(*ctx));
-  if (result.ok()) *resp = *std::move(result);
-  reactor->Finish(ToGrpcStatus(result.status()));
-  return reactor;
-}
-
-// Runs fn(ctx) on the worker pool (it may block on the drive) and finishes from there.
-template <typename Resp, typename Fn>
-grpc::ServerUnaryReactor* Offload(WorkerPool& pool, grpc::CallbackServerContext* ctx, Resp* resp,
-                                  Fn fn) {
-  auto* reactor = ctx->DefaultReactor();
-  CallContext cc = ContextFrom(*ctx);
-  pool.Post([reactor, resp, fn = std::move(fn), cc = std::move(cc)]() mutable {
-    auto result = fn(cc);
-    if (result.ok()) *resp = *std::move(result);
-    reactor->Finish(ToGrpcStatus(result.status()));
-  });
-  return reactor;
-}
 
 // Server stream of snapshots: a producer thread runs the core's WatchDrives loop and hands each
 // snapshot to gRPC one write at a time (the core coalesces while a write is in flight).
@@ -102,53 +71,53 @@ class WatchReactor final : public grpc::ServerWriteReactor<v1::DriveStatus> {
   std::thread producer_;
 };
 
-}  // namespace
-
-CallContext ContextFrom(const grpc::CallbackServerContext& ctx) {
-  CallContext cc;
-  const std::string peer = ctx.peer();
-  const bool network = absl::StartsWith(peer, "ipv4:") || absl::StartsWith(peer, "ipv6:") ||
-                       absl::StartsWith(peer, "unix:");
-  cc.transport = "grpc";
-  cc.source_address = peer;
-  cc.idempotency_key = Metadata(ctx, "idempotency-key");
-  if (!network) {
-    if (std::string src = Metadata(ctx, "x-drivegw-source"); !src.empty()) cc.source_address = src;
-    if (std::string tr = Metadata(ctx, "x-drivegw-transport"); !tr.empty()) cc.transport = tr;
-  }
-  return cc;
+// The full method name the role table knows this service's `method` by.
+std::string RpcName(const char* method) {
+  return FullMethod(v1::DriveService::service_full_name(), method);
 }
+
+}  // namespace
 
 grpc::ServerUnaryReactor* DriveServiceGrpc::ListDrives(grpc::CallbackServerContext* ctx,
                                                        const v1::ListDrivesRequest* req,
                                                        v1::ListDrivesResponse* resp) {
-  return Inline(ctx, resp, [&](const CallContext& c) { return core_.ListDrives(*req, c); });
+  return Inline(auth_, RpcName("ListDrives"), ctx, resp,
+                [&](const CallContext& c) { return core_.ListDrives(*req, c); });
 }
 grpc::ServerUnaryReactor* DriveServiceGrpc::GetDrive(grpc::CallbackServerContext* ctx,
                                                      const v1::GetDriveRequest* req,
                                                      v1::Drive* resp) {
-  return Inline(ctx, resp, [&](const CallContext& c) { return core_.GetDrive(*req, c); });
+  return Inline(auth_, RpcName("GetDrive"), ctx, resp,
+                [&](const CallContext& c) { return core_.GetDrive(*req, c); });
 }
 grpc::ServerUnaryReactor* DriveServiceGrpc::GetCommand(grpc::CallbackServerContext* ctx,
                                                        const v1::GetCommandRequest* req,
                                                        v1::CommandHandle* resp) {
-  return Inline(ctx, resp, [&](const CallContext& c) { return core_.GetCommand(*req, c); });
+  return Inline(auth_, RpcName("GetCommand"), ctx, resp,
+                [&](const CallContext& c) { return core_.GetCommand(*req, c); });
 }
 grpc::ServerWriteReactor<v1::DriveStatus>* DriveServiceGrpc::WatchDrives(
     grpc::CallbackServerContext* ctx, const v1::WatchDrivesRequest* req) {
-  return new WatchReactor(core_, *req, ContextFrom(*ctx));  // deletes itself in OnDone
+  absl::StatusOr<CallContext> cc = auth_.Authorize(*ctx, RpcName("WatchDrives"));
+  if (!cc.ok()) return new RefusedWriter<v1::DriveStatus>(cc.status());  // deletes itself
+  return new WatchReactor(core_, *req, *std::move(cc));                  // deletes itself in OnDone
 }
 
 grpc::ServerReadReactor<v1::CyclicSetpointRequest>* DriveServiceGrpc::StreamCyclicSetpoints(
     grpc::CallbackServerContext* ctx, v1::CyclicStreamSummary* resp) {
-  return NewCyclicSetpointReactor(core_, pool_, ctx, resp);
+  absl::StatusOr<CallContext> cc = auth_.Authorize(*ctx, RpcName("StreamCyclicSetpoints"));
+  if (!cc.ok()) return new RefusedReader<v1::CyclicSetpointRequest>(cc.status());  // deletes itself
+  return NewCyclicSetpointReactor(core_, pool_, ctx, resp, *std::move(cc));
 }
 
-#define DGW_OFFLOAD(Method, Req, Resp)                                                   \
-  grpc::ServerUnaryReactor* DriveServiceGrpc::Method(grpc::CallbackServerContext* ctx,   \
-                                                     const Req* req, Resp* resp) {       \
-    return Offload(pool_, ctx, resp,                                                     \
-                   [this, req](const CallContext& c) { return core_.Method(*req, c); }); \
+// Every offloaded call passes the idempotency hook (decision 020; reads pass straight through).
+#define DGW_OFFLOAD(Method, Req, Resp)                                                            \
+  grpc::ServerUnaryReactor* DriveServiceGrpc::Method(grpc::CallbackServerContext* ctx,            \
+                                                     const Req* req, Resp* resp) {                \
+    return Offload(auth_, RpcName(#Method), pool_, ctx, resp, [this, req](const CallContext& c) { \
+      return RunIdempotent(idempotency_, "drivegw.v1.DriveService/" #Method, *req, c,             \
+                           [&] { return core_.Method(*req, c); });                                \
+    });                                                                                           \
   }
 
 DGW_OFFLOAD(Enable, v1::EnableRequest, v1::CommandHandle)

@@ -6,13 +6,19 @@
 
 #include "drivegw/v1/drive.grpc.pb.h"
 #include "server/core/drive_service.h"
+#include "server/core/idempotency.h"
+#include "server/grpc/call_auth.h"
 #include "server/grpc/worker_pool.h"
 
 namespace drivegw::server {
 
 class DriveServiceGrpc final : public v1::DriveService::CallbackService {
  public:
-  DriveServiceGrpc(DriveServiceCore& core, WorkerPool& pool) : core_(core), pool_(pool) {}
+  // `idempotency` may be null (no idempotent retries, decision 020).
+  // Every call is authorised by `auth` (decision 015).
+  DriveServiceGrpc(DriveServiceCore& core, WorkerPool& pool, const CallAuth& auth,
+                   IdempotencyCache* idempotency = nullptr)
+      : core_(core), pool_(pool), auth_(auth), idempotency_(idempotency) {}
 
   grpc::ServerUnaryReactor* ListDrives(grpc::CallbackServerContext* ctx,
                                        const v1::ListDrivesRequest* req,
@@ -63,10 +69,10 @@ class DriveServiceGrpc final : public v1::DriveService::CallbackService {
  private:
   DriveServiceCore& core_;
   WorkerPool& pool_;
+  const CallAuth& auth_;
+  IdempotencyCache* idempotency_;
 };
 
-// The caller as gRPC saw it; the REST front end's in-process calls carry the HTTP client's
-// address in x-drivegw-source (trusted only on in-process calls).
-CallContext ContextFrom(const grpc::CallbackServerContext& ctx);
+// ContextFrom (the unauthenticated base of a call's context) moved to server/grpc/call_auth.h.
 
 }  // namespace drivegw::server

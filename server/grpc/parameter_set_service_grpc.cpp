@@ -1,33 +1,15 @@
 // ParameterSetServiceGrpc: one line per RPC into the core, each on the worker pool.
 #include "server/grpc/parameter_set_service_grpc.h"
 
-#include "server/grpc/drive_service_grpc.h"  // ContextFrom
-#include "server/grpc/status_mapping.h"
-
 namespace drivegw::server {
-namespace {
-
-// Runs fn(ctx) on the worker pool (SQLite, drive reads) and finishes from there.
-template <typename Resp, typename Fn>
-grpc::ServerUnaryReactor* Offload(WorkerPool& pool, grpc::CallbackServerContext* ctx, Resp* resp,
-                                  Fn fn) {
-  auto* reactor = ctx->DefaultReactor();
-  CallContext cc = ContextFrom(*ctx);
-  pool.Post([reactor, resp, fn = std::move(fn), cc = std::move(cc)]() mutable {
-    auto result = fn(cc);
-    if (result.ok()) *resp = *std::move(result);
-    reactor->Finish(ToGrpcStatus(result.status()));
-  });
-  return reactor;
-}
-
-}  // namespace
-
-#define DGW_PS_RPC(Method, Req, Resp)                                                             \
-  grpc::ServerUnaryReactor* ParameterSetServiceGrpc::Method(grpc::CallbackServerContext* ctx,     \
-                                                            const v1::Req* req, v1::Resp* resp) { \
-    return Offload(pool_, ctx, resp,                                                              \
-                   [this, req](const CallContext& c) { return core_.Method(*req, c); });          \
+#define DGW_PS_RPC(Method, Req, Resp)                                                              \
+  grpc::ServerUnaryReactor* ParameterSetServiceGrpc::Method(grpc::CallbackServerContext* ctx,      \
+                                                            const v1::Req* req, v1::Resp* resp) {  \
+    return Offload(auth_, FullMethod(v1::ParameterSetService::service_full_name(), #Method),       \
+                   pool_, ctx, resp, [this, req](const CallContext& c) {                           \
+                     return RunIdempotent(idempotency_, "drivegw.v1.ParameterSetService/" #Method, \
+                                          *req, c, [&] { return core_.Method(*req, c); });         \
+                   });                                                                             \
   }
 DGW_PARAMETER_SET_RPCS(DGW_PS_RPC)
 #undef DGW_PS_RPC

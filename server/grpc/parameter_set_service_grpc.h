@@ -3,7 +3,9 @@
 #pragma once
 
 #include "drivegw/v1/parameter_sets.grpc.pb.h"
+#include "server/core/idempotency.h"
 #include "server/core/parameter_set_service.h"
+#include "server/grpc/call_auth.h"
 #include "server/grpc/worker_pool.h"
 
 namespace drivegw::server {
@@ -29,8 +31,11 @@ namespace drivegw::server {
 
 class ParameterSetServiceGrpc final : public v1::ParameterSetService::CallbackService {
  public:
-  ParameterSetServiceGrpc(ParameterSetServiceCore& core, WorkerPool& pool)
-      : core_(core), pool_(pool) {}
+  // Every call is authorised by `auth` (decision 015); `idempotency` may be null (no idempotent
+  // retries, decision 020).
+  ParameterSetServiceGrpc(ParameterSetServiceCore& core, WorkerPool& pool, const CallAuth& auth,
+                          IdempotencyCache* idempotency = nullptr)
+      : core_(core), pool_(pool), auth_(auth), idempotency_(idempotency) {}
 
 #define DGW_PS_RPC(Method, Req, Resp)                                                    \
   grpc::ServerUnaryReactor* Method(grpc::CallbackServerContext* ctx, const v1::Req* req, \
@@ -41,6 +46,8 @@ class ParameterSetServiceGrpc final : public v1::ParameterSetService::CallbackSe
  private:
   ParameterSetServiceCore& core_;
   WorkerPool& pool_;
+  const CallAuth& auth_;
+  IdempotencyCache* idempotency_;
 };
 
 }  // namespace drivegw::server

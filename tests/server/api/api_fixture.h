@@ -31,7 +31,7 @@ class ApiRoundTripTest : public ::testing::Test {
         st1_(fleet_.Add("st1", "stober", false)),
         core_(fleet_.drives(), nullptr),
         pool_(2),
-        service_(core_, pool_) {}
+        service_(core_, pool_, CallAuth::Open()) {}
 
   void SetUp() override {
     grpc::ServerBuilder builder;

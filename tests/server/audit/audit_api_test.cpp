@@ -26,7 +26,7 @@ class AuditApiTest : public storage::testing::AuditDbTest {
   void SetUp() override {
     AuditDbTest::SetUp();
     core_ = std::make_unique<AuditServiceCore>(*log_);
-    service_ = std::make_unique<AuditServiceGrpc>(*core_, pool_);
+    service_ = std::make_unique<AuditServiceGrpc>(*core_, pool_, CallAuth::Open());
     grpc::ServerBuilder builder;
     builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port_);
     builder.RegisterService(service_.get());
