@@ -51,7 +51,9 @@ absl::Status LeaseManager::Conflict(const LeaseInfo& lease) const {
   std::string msg = absl::StrCat("drive '", lease.drive, "' is leased by '", lease.holder,
                                  "' until ", FormatUtc(lease.expire_time));
   if (lease.holder == kAnonymousPrincipal) {
-    absl::StrAppend(&msg, " (the holder presents the lease id as x-drivegw-lease)");
+    absl::StrAppend(&msg,
+                    " (the holder presents the lease id: gRPC metadata x-drivegw-lease, HTTP "
+                    "header X-Drivegw-Lease)");
   }
   return absl::FailedPreconditionError(msg);
 }
