@@ -33,6 +33,7 @@ drives:
 )";
 
 constexpr char kFull[] = R"(# Two LinMot drives on the machine network.
+auth: {enabled: true}
 listen:
   grpc: 0.0.0.0:50052
   http: "127.0.0.1:8081"
@@ -88,8 +89,10 @@ TEST(ParseConfigTest, EmptyText_DemoWithAllDefaults) {
   ASSERT_TRUE(cfg.ok()) << cfg.status();
   EXPECT_TRUE(cfg->demo);
   EXPECT_TRUE(cfg->drives.empty());
-  EXPECT_EQ(cfg->listen.grpc, "0.0.0.0:50051");
-  EXPECT_EQ(cfg->listen.http, "0.0.0.0:8080");
+  // Auth is off by default, so the default ports listen on loopback only (decision 015).
+  EXPECT_FALSE(cfg->auth.enabled);
+  EXPECT_EQ(cfg->listen.grpc, "127.0.0.1:50051");
+  EXPECT_EQ(cfg->listen.http, "127.0.0.1:8080");
   EXPECT_EQ(cfg->data_dir, "./data");
 }
 
@@ -105,14 +108,14 @@ TEST(ParseConfigTest, OnlyListen_DemoWithListenAndDataDirApplied) {
   EXPECT_TRUE(cfg->demo);
   EXPECT_TRUE(cfg->drives.empty());
   EXPECT_EQ(cfg->listen.http, "127.0.0.1:0");
-  EXPECT_EQ(cfg->listen.grpc, "0.0.0.0:50051");
+  EXPECT_EQ(cfg->listen.grpc, "127.0.0.1:50051");
   EXPECT_EQ(cfg->data_dir, "/tmp/dgw");
 }
 
 TEST(ParseConfigTest, EmptyListenSection_KeepsDefaults) {
   auto cfg = ParseConfig("listen:\n");
   ASSERT_TRUE(cfg.ok()) << cfg.status();
-  EXPECT_EQ(cfg->listen.grpc, "0.0.0.0:50051");
+  EXPECT_EQ(cfg->listen.grpc, "127.0.0.1:50051");
 }
 
 TEST(ParseConfigTest, MinimalDrive_LinUdpAndTimeoutDefaults) {
@@ -142,6 +145,7 @@ TEST(ParseConfigTest, FullExample_EveryKeyApplied) {
   auto cfg = ParseConfig(kFull);
   ASSERT_TRUE(cfg.ok()) << cfg.status();
   EXPECT_FALSE(cfg->demo);
+  EXPECT_TRUE(cfg->auth.enabled);
   EXPECT_EQ(cfg->listen.grpc, "0.0.0.0:50052");
   EXPECT_EQ(cfg->listen.http, "127.0.0.1:8081");
   EXPECT_EQ(cfg->data_dir, "/var/lib/drivegw");
@@ -169,13 +173,14 @@ TEST(ParseConfigTest, FullExample_EveryKeyApplied) {
 }
 
 TEST(ParseConfigTest, IPv6ListenAddress_Accepted) {
-  auto cfg = ParseConfig("listen:\n  grpc: \"[::]:50051\"\n  http: \"[::1]:0\"\n");
+  auto cfg =
+      ParseConfig("auth: {enabled: true}\nlisten:\n  grpc: \"[::]:50051\"\n  http: \"[::1]:0\"\n");
   ASSERT_TRUE(cfg.ok()) << cfg.status();
   EXPECT_EQ(cfg->listen.grpc, "[::]:50051");
 }
 
 TEST(ParseConfigTest, EmptyListenHost_MeansEveryInterface) {
-  auto cfg = ParseConfig("listen:\n  http: ':8081'\n");
+  auto cfg = ParseConfig("auth: {enabled: true}\nlisten:\n  http: ':8081'\n");
   ASSERT_TRUE(cfg.ok()) << cfg.status();
   EXPECT_EQ(cfg->listen.http, ":8081");
 }
