@@ -28,6 +28,7 @@
 #include "server/grpc/call_auth.h"
 #include "server/grpc/curve_set_service_grpc.h"
 #include "server/grpc/drive_service_grpc.h"
+#include "server/grpc/lease_service_grpc.h"
 #include "server/grpc/parameter_set_service_grpc.h"
 #include "server/grpc/peer_identity.h"
 #include "server/grpc/token_service_grpc.h"
@@ -142,6 +143,10 @@ struct Gateway::Impl {
   std::unique_ptr<DriveEventRecorder> drive_events;
   std::unique_ptr<AuditServiceCore> audit_core;
   std::unique_ptr<AuditServiceGrpc> audit_service;
+  // Control leases and idempotent retries (issue 7, decisions 019, 020), used by the cores and
+  // services below, so declared before them.
+  std::unique_ptr<LeaseManager> leases = std::make_unique<LeaseManager>();
+  std::unique_ptr<IdempotencyCache> idempotency = std::make_unique<IdempotencyCache>();
   std::unique_ptr<DriveServiceCore> core;
   std::unique_ptr<WorkerPool> pool;
   std::unique_ptr<DriveServiceGrpc> service;
@@ -157,6 +162,8 @@ struct Gateway::Impl {
   std::unique_ptr<CurveSetServiceCore> curve_set_core;
   std::unique_ptr<CurveSetServiceGrpc> curve_set_service;
   std::unique_ptr<TokenServiceGrpc> token_service;
+  std::unique_ptr<LeaseServiceCore> lease_core;
+  std::unique_ptr<LeaseServiceGrpc> lease_service;
   std::unique_ptr<grpc::Server> grpc_server;
   int grpc_port = 0;
   std::unique_ptr<rest::RestServer> rest;
@@ -316,24 +323,31 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
     DGW_RETURN_IF_ERROR(drive->Activate());
     impl->drives.push_back(std::move(drive));
   }
-  impl->core = std::make_unique<DriveServiceCore>(impl->drives, impl->audit.get());
+  impl->core =
+      std::make_unique<DriveServiceCore>(impl->drives, impl->audit.get(), impl->leases.get());
   impl->pool = std::make_unique<WorkerPool>(kWorkerThreads);
-  impl->service = std::make_unique<DriveServiceGrpc>(*impl->core, *impl->pool, *impl->call_auth);
+  impl->service = std::make_unique<DriveServiceGrpc>(*impl->core, *impl->pool, *impl->call_auth,
+                                                     impl->idempotency.get());
   impl->catalogues = {linmot::linudp::LinMotParameterCatalogue(),
                       linmot::devicenet::LinMotDevicenetParameterCatalogue(),
                       trinamic::TrinamicParameterCatalogue(), stober::StoberParameterCatalogue()};
   impl->parameter_sets = std::make_unique<storage::ParameterSetRepo>(*impl->db);
   impl->applier = std::make_unique<ParameterApplier>(*impl->parameter_sets, impl->catalogues);
   impl->parameter_set_core = std::make_unique<ParameterSetServiceCore>(
-      *impl->parameter_sets, *impl->applier, impl->catalogues, impl->drives, impl->audit.get());
-  impl->parameter_set_service =
-      std::make_unique<ParameterSetServiceGrpc>(*impl->parameter_set_core, *impl->pool,
-                                                *impl->call_auth);
+      *impl->parameter_sets, *impl->applier, impl->catalogues, impl->drives, impl->audit.get(),
+      impl->leases.get());
+  impl->parameter_set_service = std::make_unique<ParameterSetServiceGrpc>(
+      *impl->parameter_set_core, *impl->pool, *impl->call_auth, impl->idempotency.get());
   impl->curve_sets = std::make_unique<storage::CurveSetRepo>(*impl->db);
   impl->curve_set_core =
-      std::make_unique<CurveSetServiceCore>(*impl->curve_sets, impl->drives, impl->audit.get());
-  impl->curve_set_service =
-      std::make_unique<CurveSetServiceGrpc>(*impl->curve_set_core, *impl->pool, *impl->call_auth);
+      std::make_unique<CurveSetServiceCore>(*impl->curve_sets, impl->drives, impl->audit.get(),
+                                            impl->leases.get());
+  impl->curve_set_service = std::make_unique<CurveSetServiceGrpc>(
+      *impl->curve_set_core, *impl->pool, *impl->call_auth, impl->idempotency.get());
+  impl->lease_core =
+      std::make_unique<LeaseServiceCore>(*impl->leases, impl->drives, impl->audit.get());
+  impl->lease_service = std::make_unique<LeaseServiceGrpc>(
+      *impl->lease_core, *impl->pool, *impl->call_auth, impl->idempotency.get());
   impl->token_service =
       std::make_unique<TokenServiceGrpc>(*impl->token_core, *impl->pool, *impl->call_auth);
 
@@ -353,6 +367,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   builder.RegisterService(impl->curve_set_service.get());
   builder.RegisterService(impl->token_service.get());
   builder.RegisterService(impl->audit_service.get());
+  builder.RegisterService(impl->lease_service.get());
   impl->grpc_server = builder.BuildAndStart();
   if (impl->grpc_server == nullptr || impl->grpc_port == 0) {
     return absl::UnavailableError(absl::StrCat("listen.grpc: cannot listen on ", cfg.listen.grpc));
@@ -367,6 +382,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   ro.more_services = {"drivegw.v1.ParameterSetService", "drivegw.v1.CurveSetService"};
   ro.more_services.push_back("drivegw.v1.TokenService");
   ro.more_services.push_back("drivegw.v1.AuditService");
+  ro.more_services.push_back("drivegw.v1.LeaseService");
   ro.static_dir = options.static_dir;
   if (cfg.tls) {
     ro.tls = rest::RestTls{cfg.tls->cert_pem, cfg.tls->key_pem, cfg.tls->client_ca_pem, cfg.tls->require_client_cert};
