@@ -30,7 +30,7 @@ void PrintNoAuthBanner(bool insecure) {
                "  *  AUTHENTICATION IS DISABLED (auth.enabled: false)                        *\n"
                "  *  Every call runs as principal 'anonymous' with role ADMIN.               *\n"
                "%s"
-               "  *  To enable: auth: {enabled: true} + `drivegw token create` (config.md) *\n"
+               "  *  To enable: auth: {enabled: true} + `drivegw token create` (config.md)   *\n"
                "  ****************************************************************************\n\n",
                insecure ? "  *  insecure: true -- the gateway may be reachable from other hosts!        *\n"
                         : "  *  Listening on loopback only.                                             *\n");
