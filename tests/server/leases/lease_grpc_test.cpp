@@ -22,6 +22,7 @@
 #include "drivegw/v1/drive.grpc.pb.h"
 #include "drivegw/v1/leases.grpc.pb.h"
 #include "server/core/drive_service.h"
+#include "server/core/idempotency.h"
 #include "server/core/lease_manager.h"
 #include "server/core/lease_service.h"
 #include "server/grpc/call_auth.h"
@@ -86,7 +87,7 @@ class LeaseGrpcTest : public ::testing::Test {
     const std::vector<std::shared_ptr<Drive>> drives{drive_};
     core_ = std::make_unique<DriveServiceCore>(drives, nullptr, &leases_);
     lease_core_ = std::make_unique<LeaseServiceCore>(leases_, drives, nullptr);
-    service_ = std::make_unique<DriveServiceGrpc>(*core_, pool_, CallAuth::Open());
+    service_ = std::make_unique<DriveServiceGrpc>(*core_, pool_, CallAuth::Open(), &idempotency_);
     lease_service_ = std::make_unique<LeaseServiceGrpc>(*lease_core_, pool_, CallAuth::Open());
     grpc::ServerBuilder builder;
     builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port_);
@@ -116,6 +117,7 @@ class LeaseGrpcTest : public ::testing::Test {
   std::unique_ptr<ss::AxisServer> sim_;
   std::shared_ptr<Drive> drive_;
   LeaseManager leases_;
+  IdempotencyCache idempotency_;
   WorkerPool pool_{4};
   std::unique_ptr<DriveServiceCore> core_;
   std::unique_ptr<LeaseServiceCore> lease_core_;
@@ -178,7 +180,7 @@ TEST_F(LeaseGrpcTest, AnonymousHolder_PresentsTheLeaseIdAsMetadata) {
 }
 
 // REST: the lease comes back as JSON and the holder presents it as the X-Drivegw-Lease header,
-// which the router forwards as x-drivegw-lease metadata.
+// which the router forwards as x-drivegw-lease metadata; Idempotency-Key makes a retry harmless.
 TEST_F(LeaseGrpcTest, Rest_LeaseHeaderForwarded) {
   rest::RouterOptions o;
   o.channel = server_->InProcessChannel(grpc::ChannelArguments());
@@ -186,10 +188,11 @@ TEST_F(LeaseGrpcTest, Rest_LeaseHeaderForwarded) {
   o.more_services = {"drivegw.v1.LeaseService"};
   auto router = rest::Router::Create(std::move(o));
   ASSERT_TRUE(router.ok()) << router.status();
-  auto post = [&](std::string target, std::string body, std::string lease) {
+  auto post = [&](std::string target, std::string body, std::string lease, std::string key = "") {
     auto sink = std::make_shared<rest::test_support::RecordingSink>();
     rest::HttpRequest req{"POST", std::move(target), std::move(body), "10.0.0.7:5555"};
     req.lease_id = std::move(lease);
+    req.idempotency_key = std::move(key);
     (*router)->Handle(std::move(req), sink);
     return sink->Response();
   };
@@ -206,8 +209,22 @@ TEST_F(LeaseGrpcTest, Rest_LeaseHeaderForwarded) {
   const auto refused = post("/v1/drives/s1:moveRelative", move, "");
   EXPECT_EQ(refused.status, 400) << refused.body;  // FAILED_PRECONDITION
   EXPECT_THAT(refused.body, HasSubstr("leased by 'anonymous'"));
-  const auto allowed = post("/v1/drives/s1:moveRelative", move, id);
+  const double start_mm = drive_->GetStatus().demand_position_mm;
+  const auto allowed = post("/v1/drives/s1:moveRelative", move, id, "rest-move-1");
   EXPECT_EQ(allowed.status, 200) << allowed.body;
+  // A retry with the same Idempotency-Key header answers the same command; the axis moves 2 mm
+  // once, not twice.
+  const auto retried = post("/v1/drives/s1:moveRelative", move, id, "rest-move-1");
+  EXPECT_EQ(retried.status, 200) << retried.body;
+  EXPECT_EQ(retried.body, allowed.body);
+  const DriveStatus moved = test_support::WaitStatus(
+      *drive_,
+      [&](const DriveStatus& s) {
+        return s.state == DriveState::kEnabled && std::abs(s.position_mm - start_mm - 2) < 1e-3;
+      },
+      10s);
+  EXPECT_NEAR(moved.position_mm, start_mm + 2, 1e-3);
+  EXPECT_NEAR(moved.demand_position_mm, start_mm + 2, 1e-6);
   const auto released = post("/v1/leases/" + id + ":release", "{}", id);
   EXPECT_EQ(released.status, 200) << released.body;
   EXPECT_TRUE(leases_.List().empty());
