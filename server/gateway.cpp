@@ -5,11 +5,13 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "adapters/core/log.h"
 #include "adapters/core/registry.h"
 #include "adapters/core/status.h"
@@ -33,6 +35,12 @@
 #include "server/grpc/peer_identity.h"
 #include "server/grpc/token_service_grpc.h"
 #include "server/grpc/worker_pool.h"
+#include "server/ops/drive_metrics.h"
+#include "server/ops/metrics.h"
+#include "server/ops/ops_service_grpc.h"
+#include "server/ops/readiness.h"
+#include "server/ops/rpc_metrics.h"
+#include "server/ops/shutdown.h"
 #include "server/rest/server.h"
 #include "sim/linmot/server.h"
 #include "sim/linmot_devicenet/server.h"
@@ -52,6 +60,14 @@ extern const std::string_view kOpenApiJson;  // generated from proto/ at build t
 
 namespace {
 constexpr int kWorkerThreads = 8;
+// Services with a grpc.health.v1 status of their own (plus "" for the whole server).
+constexpr const char* kHealthServices[] = {"",
+                                           "drivegw.v1.DriveService",
+                                           "drivegw.v1.ParameterSetService",
+                                           "drivegw.v1.CurveSetService",
+                                           "drivegw.v1.AuditService",
+                                           "drivegw.v1.LeaseService",
+                                           "drivegw.v1.OpsService"};
 
 DriveRegistry MakeRegistry() {
   DriveRegistry r;
@@ -168,6 +184,12 @@ struct Gateway::Impl {
   int grpc_port = 0;
   std::unique_ptr<rest::RestServer> rest;
   bool stopped = false;
+  // Operations (issue 7, decisions 021, 022): readiness for /readyz and OpsService, the drive
+  // metrics collector (removed at Stop), the wire trace switch.
+  ops::Readiness readiness;
+  int drive_collector = 0;
+  std::unique_ptr<OpsServiceCore> ops_core;
+  std::unique_ptr<OpsServiceGrpc> ops_service;
 };
 
 absl::StatusOr<std::pair<std::string, uint16_t>> SplitHostPort(const std::string& field, const std::string& value) {
@@ -239,6 +261,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   impl->audit = std::make_unique<storage::AuditLog>(*impl->db);
   DGW_RETURN_IF_ERROR(impl->audit->SetRetention(
       {cfg.audit.max_entries, cfg.audit.warn_at_percent, cfg.audit.prune_to_percent}));
+  impl->readiness.SetStorageOpen(true);
   DGW_RETURN_IF_ERROR(StartAuth(cfg, *impl));
 
   // Demo mode: embedded simulated drives on loopback, and drive configs pointing at them.
@@ -317,10 +340,15 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   }
 
   const DriveRegistry registry = MakeRegistry();
+  std::vector<std::string> drive_names;
+  for (const DriveConfig& dc : drive_configs) drive_names.push_back(dc.name);
+  impl->readiness.ExpectDrives(drive_names);
   for (const DriveConfig& dc : drive_configs) {
     DGW_ASSIGN_OR_RETURN(std::unique_ptr<Drive> drive, registry.Create(dc, clock));
     // A drive that is switched off is OFFLINE, not a start failure; a bad transport is.
-    DGW_RETURN_IF_ERROR(drive->Activate());
+    const absl::Status activated = drive->Activate();
+    impl->readiness.MarkDriveTried(dc.name);
+    DGW_RETURN_IF_ERROR(activated);
     impl->drives.push_back(std::move(drive));
   }
   impl->core =
@@ -356,7 +384,21 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   impl->audit_service = std::make_unique<AuditServiceGrpc>(*impl->audit_core, *impl->pool, *impl->call_auth);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  impl->ops_core =
+      std::make_unique<OpsServiceCore>(impl->drives, impl->audit.get(), impl->readiness);
+  impl->ops_service =
+      std::make_unique<OpsServiceGrpc>(*impl->ops_core, *impl->pool, *impl->call_auth);
+  ops::InstallRoundTripHistograms();
+  impl->drive_collector = ops::AddDriveCollector(ops::DefaultRegistry(), impl->drives);
   grpc::ServerBuilder builder;
+  {
+    // Per-RPC metrics on every call, REST's in-process ones included (decision 021).
+    std::map<std::string, std::string> families;
+    for (const auto& d : impl->drives) families[d->config().name] = d->config().family;
+    std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
+    creators.push_back(ops::MakeRpcMetricsFactory(ops::DefaultRegistry(), std::move(families)));
+    builder.experimental().SetInterceptorCreators(std::move(creators));
+  }
   DGW_ASSIGN_OR_RETURN(auto grpc_addr, SplitHostPort("listen.grpc", cfg.listen.grpc));
   // TLS (and client certificates) on the network port only; the REST front end's in-process
   // channel below never passes through it (decision 023).
@@ -368,9 +410,14 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   builder.RegisterService(impl->token_service.get());
   builder.RegisterService(impl->audit_service.get());
   builder.RegisterService(impl->lease_service.get());
+  builder.RegisterService(impl->ops_service.get());
   impl->grpc_server = builder.BuildAndStart();
   if (impl->grpc_server == nullptr || impl->grpc_port == 0) {
     return absl::UnavailableError(absl::StrCat("listen.grpc: cannot listen on ", cfg.listen.grpc));
+  }
+  // gRPC health per service (grpc.health.v1): SERVING now, NOT_SERVING from shutdown on.
+  if (auto* health = impl->grpc_server->GetHealthCheckService()) {
+    for (const char* service : kHealthServices) health->SetServingStatus(service, true);
   }
 
   DGW_ASSIGN_OR_RETURN(auto http_addr, SplitHostPort("listen.http", cfg.listen.http));
@@ -384,6 +431,21 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   ro.more_services.push_back("drivegw.v1.AuditService");
   ro.more_services.push_back("drivegw.v1.LeaseService");
   ro.static_dir = options.static_dir;
+  ro.more_services.push_back("drivegw.v1.OpsService");
+  ro.fixed_routes["/metrics"] = [] {
+    rest::HttpResponse r;
+    r.content_type = "text/plain; version=0.0.4; charset=utf-8";
+    r.body = ops::DefaultRegistry().Render();
+    return r;
+  };
+  ro.fixed_routes["/readyz"] = [readiness = &impl->readiness] {
+    rest::HttpResponse r;
+    r.content_type = "text/plain; charset=utf-8";
+    const absl::Status s = readiness->Check();
+    r.status = s.ok() ? 200 : 503;
+    r.body = s.ok() ? "ready\n" : absl::StrCat("not ready: ", s.message(), "\n");
+    return r;
+  };
   if (cfg.tls) {
     ro.tls = rest::RestTls{cfg.tls->cert_pem, cfg.tls->key_pem, cfg.tls->client_ca_pem, cfg.tls->require_client_cert};
   }
@@ -425,9 +487,59 @@ sim::trinamic::TrinamicServer* Gateway::demo_trinamic_simulator() const { return
 
 sim::stober::AxisServer* Gateway::demo_stober_simulator() const { return impl_->stober_sim.get(); }
 
+void Gateway::BeginShutdown() {
+  if (!impl_) return;
+  impl_->readiness.SetShuttingDown();
+  if (impl_->grpc_server) {
+    if (auto* health = impl_->grpc_server->GetHealthCheckService()) {
+      for (const char* service : kHealthServices) health->SetServingStatus(service, false);
+    }
+  }
+}
+
+bool Gateway::Shutdown(std::chrono::milliseconds bound) {
+  if (!impl_ || impl_->stopped) return true;
+  const auto start = std::chrono::steady_clock::now();
+  log::Info("shutdown_started", log::Fields().Add("bound_ms", bound.count()));
+  BeginShutdown();
+  // No new calls: streams end, REST stops accepting, gRPC refuses new calls and gives running
+  // ones a quarter of the bound (at most 2 s) before cancelling them.
+  if (impl_->core) impl_->core->Shutdown();
+  if (impl_->audit_core) impl_->audit_core->Shutdown();
+  if (impl_->rest) impl_->rest->Stop();
+  if (impl_->grpc_server) {
+    const std::chrono::milliseconds grace =
+        std::min<std::chrono::milliseconds>(bound / 4, std::chrono::seconds(2));
+    impl_->grpc_server->Shutdown(std::chrono::system_clock::now() + grace);
+  }
+  // Moving axes get a controlled stop; up to 60 % of the bound from the start (decision 022).
+  const ops::StopReport report =
+      ops::StopMovingDrives(impl_->drives, start + bound * 6 / 10, impl_->audit.get());
+  Stop();
+  // Every writer is gone: the WAL is copied into the database file and synced (flush), the
+  // database closes with the Gateway.
+  if (impl_->db) {
+    if (absl::Status s = impl_->db->Exec("PRAGMA wal_checkpoint(TRUNCATE)"); !s.ok()) {
+      log::Error("shutdown_checkpoint_failed", log::Fields().Add("error", s.message()));
+    }
+  }
+  const auto took =
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start);
+  log::Info("shutdown_done", log::Fields()
+                                 .Add("stopped", absl::StrJoin(report.stopped, ","))
+                                 .Add("still_moving", absl::StrJoin(report.still_moving, ","))
+                                 .Add("took_ms", took.count()));
+  return report.still_moving.empty();
+}
+
 void Gateway::Stop() {
   if (!impl_ || impl_->stopped) return;
   impl_->stopped = true;
+  BeginShutdown();
+  if (impl_->drive_collector != 0) {
+    ops::DefaultRegistry().RemoveCollector(impl_->drive_collector);
+    impl_->drive_collector = 0;
+  }
   if (impl_->core) impl_->core->Shutdown();  // ends watch streams
   if (impl_->audit_core) impl_->audit_core->Shutdown();  // ends audit watch streams
   if (impl_->rest) impl_->rest->Stop();

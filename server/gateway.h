@@ -2,6 +2,7 @@
 // the service core, gRPC and REST servers. main.cpp and the end-to-end tests both use it.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -69,10 +70,18 @@ class Gateway {
 
   // Stops servers, drives and simulators; idempotent. The destructor calls it.
   void Stop();
+  // Graceful shutdown (SIGTERM; decision 022): /readyz and gRPC health turn NOT_SERVING, no new
+  // calls are accepted, moving drives get a controlled StopMotion (the axis's acceleration limit
+  // as deceleration) and are waited for, then Stop() and the audit log's WAL is checkpointed.
+  // Takes about `bound` at most unless a drive call blocks beyond its own time-outs. True when
+  // every moving drive stood in time.
+  bool Shutdown(std::chrono::milliseconds bound);
 
   struct Impl;
 
  private:
+  // Readiness and gRPC health to NOT_SERVING; idempotent.
+  void BeginShutdown();
   explicit Gateway(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
