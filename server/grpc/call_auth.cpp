@@ -86,7 +86,7 @@ void CallAuth::AuditDenied(const CallCredentials& credentials, const CallContext
   int64_t suppressed = 0;
   {
     std::lock_guard lock(mu_);
-    const auto now = std::chrono::steady_clock::now();
+    const TimePoint now = clock_.Now();
     if (now - window_start_ >= std::chrono::seconds(1)) {
       if (suppressed_ > 0 && window_count_ >= kMaxDeniedAuditsPerSecond) {
         log::Warn("auth_denied_suppressed", log::Fields().Add("count", suppressed_));

@@ -16,6 +16,7 @@
 #include <utility>
 
 #include "absl/status/statusor.h"
+#include "adapters/core/clock.h"
 #include "server/auth/authenticator.h"
 #include "server/core/call_context.h"
 #include "server/grpc/status_mapping.h"
@@ -50,9 +51,11 @@ class CallAuth {
   // the next written refusal carries the count.
   static constexpr int kMaxDeniedAuditsPerSecond = 20;
 
-  // `authenticator` and `audit` (may be null) must outlive this object and its calls.
-  CallAuth(const auth::Authenticator& authenticator, storage::AuditLog* audit)
-      : authenticator_(authenticator), audit_(audit) {}
+  // `authenticator` and `audit` (may be null) must outlive this object and its calls; `clock`
+  // times the refusal rate window.
+  CallAuth(const auth::Authenticator& authenticator, storage::AuditLog* audit,
+           const Clock& clock = SteadyClock::Instance())
+      : authenticator_(authenticator), audit_(audit), clock_(clock) {}
 
   // Auth disabled (anonymous admin), no audit: for tests that build one service on its own.
   // The role table still applies: a method without a role is refused.
@@ -75,8 +78,9 @@ class CallAuth {
 
   const auth::Authenticator& authenticator_;
   storage::AuditLog* audit_;
+  const Clock& clock_;
   mutable std::mutex mu_;  // the denial rate window
-  mutable std::chrono::steady_clock::time_point window_start_{};
+  mutable TimePoint window_start_{};
   mutable int window_count_ = 0;
   mutable int64_t suppressed_ = 0;
 };
