@@ -255,6 +255,7 @@ absl::Status LinMotDnDrive::DoActivate() {
 }
 
 void LinMotDnDrive::DoDeactivate() {
+  StopCurveRunner();  // decision 987: its legs go through this connection
   {
     // §11.9: clear the control word for an answered poll before releasing the set.
     std::unique_lock lock(mu_);
@@ -640,13 +641,16 @@ bool LinMotDnDrive::MotionActiveLocked() const {
   // Decision 982: no Motion Active bit in this generation. A gateway motion runs until In
   // Position; otherwise (native curves, braking after a RUN loss) the measured speed decides.
   const StatusLowWord low = sample_.low;
-  if (!sample_.valid || !low.run_state() || low.in_position(options_.motor)) return false;
+  if (!sample_.valid || !low.run_state()) return false;
+  if (CurveOpenLocked()) return true;  // decision 987: In Position between legs is not the end
+  if (low.in_position(options_.motor)) return false;
   return motion_.has_value() || std::fabs(velocity_mm_s_) > kStandstillMmS;
 }
 
 DriveStatus LinMotDnDrive::BuildStatusLocked() const {
   DriveStatus s;
   s.state = MapDnState(OnlineLocked(), sample_.low, options_.motor, MotionActiveLocked());
+  if (s.state == DriveState::kEnabled && CurveOpenLocked()) s.state = DriveState::kMoving;  // 987
   if (!sample_.valid) {
     if (!link_reason_.empty()) s.native.text = link_reason_;
     return s;

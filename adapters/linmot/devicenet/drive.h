@@ -79,6 +79,9 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
   // handshake's, §8.2), word 2 = value (-32768..65535). Reply: word2 = echo, word3 = response
   // value, word4 = status low word, status = coded error the command raised (0: none).
   absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) override;
+  // A timed sequence of set-point moves (0x51 + 0x11 per leg): DeviceNet cannot transfer curve
+  // shapes (linmot-devicenet.md §8.8); drive_curve.cpp, docs/decisions/987-devicenet-curve-run.md.
+  absl::StatusOr<CommandInfo> RunCurve(const Curve& curve, const CurveRunOptions& options) override;
   // Frames to and from this MAC ID, logged by the session (PeerOptions::wire_trace).
   absl::Status SetWireTrace(bool on) override {
     wire_trace_->store(on);
@@ -148,6 +151,7 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
     int settle = 0;  // answered polls without INIT State but with INIT Done (kStarting)
   };
   enum class Wait { kReached, kDeadline, kOffline, kInactive };
+  class CurveRunner;  // the legs of a RunCurve after the first one (drive_curve.cpp)
 
   // SessionPeer (I/O thread, under the session lock).
   std::vector<uint8_t> BuildPollCommand() noexcept override;
@@ -167,6 +171,8 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
   std::vector<std::string> WarningsLocked() const;
   bool OnlineLocked() const { return link_ == LinkState::kOnline && sample_.valid; }
   bool MotionActiveLocked() const;
+  bool CurveOpenLocked() const;  // a RunCurve handle is open (decision 987: MOVING meanwhile)
+  void StopCurveRunner();        // Deactivate: the runner's legs use this connection
   bool FaultDetailsKnownLocked() const;
   bool FaultPendingLocked() const {
     return sample_.low.error_state() || sample_.low.error_pending();
@@ -242,6 +248,10 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
   std::optional<HomingTracker> homing_;
   std::optional<DriveStatus> published_;
   TimePoint published_at_{};
+  std::optional<uint64_t> curve_command_;  // the latest RunCurve handle (decision 987)
+
+  std::mutex curve_mu_;                 // guards curve_ (never held with mu_ or op_mu_)
+  std::shared_ptr<CurveRunner> curve_;  // the latest RunCurve's leg scheduler
 };
 
 }  // namespace drivegw::linmot::devicenet
