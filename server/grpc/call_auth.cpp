@@ -21,12 +21,8 @@ std::string Metadata(const grpc::CallbackServerContext& ctx, const char* key) {
 // The principal an UNAUTHENTICATED refusal is recorded under: nobody was proven.
 constexpr char kUnauthenticated[] = "(unauthenticated)";
 
-}  // namespace
-
-std::string FullMethod(std::string_view service_full_name, std::string_view method) {
-  return absl::StrCat("/", std::string(service_full_name), "/", std::string(method));
-}
-
+// The unauthenticated base of a call's context (CallCredentials::base). Not exported: every
+// handler gets its context from CallAuth, so none can skip the check by accident.
 CallContext ContextFrom(const grpc::CallbackServerContext& ctx) {
   CallContext cc;
   const std::string peer = ctx.peer();
@@ -41,6 +37,12 @@ CallContext ContextFrom(const grpc::CallbackServerContext& ctx) {
     if (std::string tr = Metadata(ctx, "x-drivegw-transport"); !tr.empty()) cc.transport = tr;
   }
   return cc;
+}
+
+}  // namespace
+
+std::string FullMethod(std::string_view service_full_name, std::string_view method) {
+  return absl::StrCat("/", std::string(service_full_name), "/", std::string(method));
 }
 
 const CallAuth& CallAuth::Open() {

@@ -31,11 +31,6 @@ namespace drivegw::server {
 // "/drivegw.v1.DriveService/MoveAbsolute" from the generated service_full_name() and a method.
 std::string FullMethod(std::string_view service_full_name, std::string_view method);
 
-// The caller as gRPC saw it, before authentication: transport, source address (the REST front
-// end's in-process calls carry the HTTP client's address in x-drivegw-source, trusted only on
-// in-process calls), idempotency key, lease id. Handlers use CallAuth::Authorize instead.
-CallContext ContextFrom(const grpc::CallbackServerContext& ctx);
-
 // What Authorize needs of a call, read on the gRPC thread so the check can run on a pool thread.
 struct CallCredentials {
   std::string method;                         // FullMethod(...)

@@ -73,6 +73,4 @@ class DriveServiceGrpc final : public v1::DriveService::CallbackService {
   IdempotencyCache* idempotency_;
 };
 
-// ContextFrom (the unauthenticated base of a call's context) moved to server/grpc/call_auth.h.
-
 }  // namespace drivegw::server
