@@ -60,7 +60,6 @@ class LinMotDnDrive::CurveRunner {
  public:
   struct Leg {
     double start_s = 0;  // since t0
-    double end_mm = 0;   // the curve's position at the leg's end
     int16_t target = 0;  // 0x11 value
     uint16_t speed = 0;  // 0x51 value
     bool moves = true;   // false: same target as the leg before, no words
@@ -234,7 +233,8 @@ void LinMotDnDrive::CurveRunner::Run() {
   }
   // The end: In Position (the drive's window around the last set-point, §7.4) in a response
   // after the last leg's echo that also carried a fresh actual position, within the tolerance.
-  const double end_mm = legs_.back().end_mm;
+  // The end point as the set-point carries it (1/51.2 mm, §0.5): a tolerance of 0 can be met.
+  const double end_mm = PositionFromDn(legs_.back().target);
   const Duration request = d.config().timeouts.request;
   // The deadline runs from the curve's end, and again from every fresh position that shows the
   // axis still moving: a loaded host ends the last leg late; a stalled axis is reported after
@@ -337,7 +337,6 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
     }
     CurveRunner::Leg leg;
     leg.start_s = prev_end_s;
-    leg.end_mm = seg.position_mm;
     auto target = PositionToDn(field + ".position_mm", seg.position_mm);
     if (!target.ok()) return Annotated(target.status(), prefix);
     leg.target = *target;
