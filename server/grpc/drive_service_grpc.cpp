@@ -1,75 +1,13 @@
 // DriveServiceGrpc: one line per RPC into the core; blocking calls run on the worker pool.
 #include "server/grpc/drive_service_grpc.h"
 
-#include <atomic>
-#include <condition_variable>
-#include <mutex>
-#include <thread>
-
 #include "server/grpc/call_auth.h"
 #include "server/grpc/cyclic_reactor.h"
+#include "server/grpc/producer_stream.h"
 #include "server/grpc/status_mapping.h"
 
 namespace drivegw::server {
 namespace {
-
-// Server stream of snapshots: a producer thread runs the core's WatchDrives loop and hands each
-// snapshot to gRPC one write at a time (the core coalesces while a write is in flight).
-class WatchReactor final : public grpc::ServerWriteReactor<v1::DriveStatus> {
- public:
-  WatchReactor(DriveServiceCore& core, const v1::WatchDrivesRequest& req, CallContext cc) {
-    producer_ = std::thread([this, &core, req, cc = std::move(cc)] {
-      absl::Status s = core.WatchDrives(
-          req, cc, [this](const v1::DriveStatus& st) { return Write(st); },
-          [this] { return cancelled_.load(); });
-      Finish(ToGrpcStatus(s));
-    });
-  }
-
-  void OnWriteDone(bool ok) override {
-    std::lock_guard lock(mu_);
-    writing_ = false;
-    if (!ok) cancelled_.store(true);
-    cv_.notify_all();
-  }
-  void OnCancel() override {
-    cancelled_.store(true);
-    std::lock_guard lock(mu_);
-    cv_.notify_all();
-  }
-  void OnDone() override {
-    cancelled_.store(true);
-    // The producer called Finish() before OnDone can run; it only has to return. gRPC may run
-    // OnDone inline on the producer thread itself, which then cannot join itself.
-    if (producer_.joinable()) {
-      if (producer_.get_id() == std::this_thread::get_id()) {
-        producer_.detach();
-      } else {
-        producer_.join();
-      }
-    }
-    delete this;  // callback API: the reactor owns itself until OnDone
-  }
-
- private:
-  bool Write(const v1::DriveStatus& st) {
-    std::unique_lock lock(mu_);
-    cv_.wait(lock, [&] { return !writing_ || cancelled_.load(); });
-    if (cancelled_.load()) return false;
-    current_ = st;
-    writing_ = true;
-    lock.unlock();
-    StartWrite(&current_);
-    return true;
-  }
-
-  std::mutex mu_;
-  std::condition_variable cv_;
-  bool writing_ = false;
-  std::atomic<bool> cancelled_{false};
-  v1::DriveStatus current_;
-  std::thread producer_;
-};
 
 // The full method name the role table knows this service's `method` by.
 std::string RpcName(const char* method) {
@@ -100,7 +38,11 @@ grpc::ServerWriteReactor<v1::DriveStatus>* DriveServiceGrpc::WatchDrives(
     grpc::CallbackServerContext* ctx, const v1::WatchDrivesRequest* req) {
   absl::StatusOr<CallContext> cc = auth_.Authorize(*ctx, RpcName("WatchDrives"));
   if (!cc.ok()) return new RefusedWriter<v1::DriveStatus>(cc.status());  // deletes itself
-  return new WatchReactor(core_, *req, *std::move(cc));                  // deletes itself in OnDone
+  return new ProducerStream<v1::DriveStatus>(                            // deletes itself in OnDone
+      [this, r = *req, cc = *std::move(cc)](const ProducerStream<v1::DriveStatus>::Sink& sink,
+                                            const std::function<bool()>& cancelled) {
+        return core_.WatchDrives(r, cc, sink, cancelled);
+      });
 }
 
 grpc::ServerReadReactor<v1::CyclicSetpointRequest>* DriveServiceGrpc::StreamCyclicSetpoints(
