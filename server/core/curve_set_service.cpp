@@ -9,6 +9,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "adapters/core/curve_run.h"
+#include "adapters/core/status.h"
 #include "google/protobuf/struct.pb.h"
 #include "google/rpc/error_details.pb.h"
 #include "server/core/audit.h"
@@ -419,35 +420,39 @@ absl::StatusOr<v1::ValidateCurveSetResponse> CurveSetServiceCore::ValidateCurveS
   return out;
 }
 
+absl::Status CurveSetServiceCore::ResolveTarget(const std::string& drive, const std::string& set,
+                                                const std::string& curve, int version,
+                                                const CallContext& c, CurveTarget* target) {
+  target->drive_name = drive;
+  DGW_ASSIGN_OR_RETURN(target->drive, FindDrive("drive", drive));
+  target->drive_name = target->drive->config().name;
+  DGW_RETURN_IF_ERROR(CheckLease(leases_, target->drive_name, c));  // decision 019
+  DGW_ASSIGN_OR_RETURN(target->set, CurveSetId("name", set));
+  DGW_ASSIGN_OR_RETURN(target->curve,
+                       CurveAt(target->set, curve, version, &target->version, &target->index));
+  return ViolationsStatus(
+      CurveViolationsAt(target->index, target->curve, target->drive->config().axis),
+      absl::StatusCode::kOutOfRange);
+}
+
 absl::StatusOr<v1::DownloadCurveResponse> CurveSetServiceCore::DownloadCurve(
     const v1::DownloadCurveRequest& r, const CallContext& c) {
   AuditObject entry;
-  std::string drive_name = r.drive();
+  CurveTarget t;
   auto audit = [&](const absl::Status& s) {
-    WriteAudit(audit_, c, drive_name, "DownloadCurve", entry.With("request", ToAuditJson(r)), s);
+    WriteAudit(audit_, c, t.drive_name, "DownloadCurve", entry.With("request", ToAuditJson(r)), s);
   };
   auto done = [&](absl::Status s) {
     audit(s);
     return s;
   };
-  auto drive = FindDrive("drive", r.drive());
-  if (!drive.ok()) return done(drive.status());
-  Drive& d = **drive;
-  drive_name = d.config().name;
-  if (auto s = CheckLease(leases_, drive_name, c); !s.ok()) return done(s);  // decision 019
-  auto name = CurveSetId("name", r.name());
-  if (!name.ok()) return done(name.status());
-  int version = 0;
-  size_t index = 0;
-  auto curve = CurveAt(*name, r.curve(), r.version(), &version, &index);
-  if (!curve.ok()) return done(curve.status());
-  entry.Str("set", SetResource(*name)).Num("version", version).Str("curve", curve->name);
-  // The drive's axis first (decision 013): a curve the axis cannot follow is never stored on it.
-  if (auto s = ViolationsStatus(CurveViolationsAt(index, *curve, d.config().axis),
-                                absl::StatusCode::kOutOfRange);
-      !s.ok()) {
-    return done(s);
+  absl::Status resolved = ResolveTarget(r.drive(), r.name(), r.curve(), r.version(), c, &t);
+  if (t.version != 0) {
+    entry.Str("set", SetResource(t.set)).Num("version", t.version).Str("curve", t.curve.name);
   }
+  if (!resolved.ok()) return done(resolved);
+  Drive& d = *t.drive;
+  const Curve* curve = &t.curve;
   int id = r.linmot_curve_id();
   if (const auto* lm = std::get_if<LM>(&curve->shape)) {
     if (id != 0 && id != lm->curve_id) {
@@ -486,21 +491,21 @@ absl::StatusOr<v1::DownloadCurveResponse> CurveSetServiceCore::DownloadCurve(
 absl::StatusOr<v1::CommandHandle> CurveSetServiceCore::RunCurve(const v1::RunCurveRequest& r,
                                                                 const CallContext& c) {
   AuditObject entry;
-  std::string drive_name = r.drive();
+  CurveTarget t;
   auto audit = [&](const absl::Status& s) {
-    WriteAudit(audit_, c, drive_name, "RunCurve", entry.With("request", ToAuditJson(r)), s);
+    WriteAudit(audit_, c, t.drive_name, "RunCurve", entry.With("request", ToAuditJson(r)), s);
   };
   auto done = [&](absl::Status s) {
     audit(s);
     return s;
   };
-  auto drive = FindDrive("drive", r.drive());
-  if (!drive.ok()) return done(drive.status());
-  Drive& d = **drive;
-  drive_name = d.config().name;
-  if (auto s = CheckLease(leases_, drive_name, c); !s.ok()) return done(s);  // decision 019
-  auto name = CurveSetId("name", r.name());
-  if (!name.ok()) return done(name.status());
+  absl::Status resolved = ResolveTarget(r.drive(), r.name(), r.curve(), r.version(), c, &t);
+  if (t.version != 0) {
+    entry.Str("set", SetResource(t.set)).Num("version", t.version).Str("curve", t.curve.name);
+  }
+  if (!resolved.ok()) return done(resolved);
+  Drive& d = *t.drive;
+  const Curve* curve = &t.curve;
   CurveRunOptions options;
   options.start_tolerance_mm = r.start_tolerance_mm();
   if (!std::isfinite(options.start_tolerance_mm) || options.start_tolerance_mm < 0) {
@@ -516,16 +521,6 @@ absl::StatusOr<v1::CommandHandle> CurveSetServiceCore::RunCurve(const v1::RunCur
         FieldError("linmot_scratch_curve_id",
                    absl::StrCat(r.linmot_scratch_curve_id(), " is outside ", LM::kMinCurveId, "..",
                                 LM::kMaxCurveId, " (linmot-mc.md §7 L997)")));
-  }
-  int version = 0;
-  size_t index = 0;
-  auto curve = CurveAt(*name, r.curve(), r.version(), &version, &index);
-  if (!curve.ok()) return done(curve.status());
-  entry.Str("set", SetResource(*name)).Num("version", version).Str("curve", curve->name);
-  if (auto s = ViolationsStatus(CurveViolationsAt(index, *curve, d.config().axis),
-                                absl::StatusCode::kOutOfRange);
-      !s.ok()) {
-    return done(s);
   }
   if (auto sum = SummarizeCurve(*curve); sum.ok()) entry.Num("duration_s", sum->duration_s);
   auto info = d.RunCurve(*curve, options);

@@ -63,6 +63,22 @@ class CurveSetServiceCore {
                                 int* version_out, size_t* index_out);
   absl::StatusOr<Drive*> FindDrive(const std::string& field, const std::string& name) const;
 
+  // What a download or run addresses, filled as far as it could be resolved (the audit entry
+  // names as much as is known even when a later step failed).
+  struct CurveTarget {
+    std::string drive_name;  // the request's text until the drive is found, then its name
+    Drive* drive = nullptr;
+    std::string set;  // set id, once valid
+    int version = 0;  // once the curve was found
+    size_t index = 0;
+    Curve curve;
+  };
+  // Finds the drive, honours its lease (decision 019), loads the curve and checks it against the
+  // drive's axis (decision 013: a curve the axis cannot follow never reaches the drive).
+  absl::Status ResolveTarget(const std::string& drive, const std::string& set,
+                             const std::string& curve, int version, const CallContext& c,
+                             CurveTarget* target);
+
   storage::CurveSetRepo& repo_;
   std::vector<std::shared_ptr<Drive>> drives_;
   std::map<std::string, Drive*> by_name_;
