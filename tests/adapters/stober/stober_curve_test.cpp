@@ -18,6 +18,7 @@
 #include "adapters/stober/factory.h"
 #include "adapters/stober/object_map.h"
 #include "sim/stober/server.h"
+#include "tests/support/curve_run_checks.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::stober {
@@ -40,20 +41,8 @@ uint32_t Id(const char* param) {
   return static_cast<uint32_t>(a.index) << 8 | a.sub_index;
 }
 
-// A smooth stroke from `from` to `to` in `duration_s`: p = from + (to − from)(1 − cos(πt/T))/2,
-// sampled every 10 ms; it starts and ends at rest.
 Curve Stroke(double from, double to, double duration_s) {
-  PositionTimeCurve pt;
-  pt.time_step_s = 0.01;
-  const int n = static_cast<int>(std::lround(duration_s / pt.time_step_s));
-  for (int i = 0; i <= n; ++i) {
-    const double x = static_cast<double>(i) / n;
-    pt.positions_mm.push_back(from + (to - from) * (1 - std::cos(std::numbers::pi * x)) / 2);
-  }
-  Curve c;
-  c.name = "stroke";
-  c.shape = pt;
-  return c;
+  return test_support::CosineStroke(from, to, duration_s);
 }
 
 class StoberCurveTest : public ::testing::Test {
@@ -115,23 +104,7 @@ class StoberCurveTest : public ::testing::Test {
   }
   // Every progress value of command `id` the status stream showed until it ended.
   std::vector<double> ProgressUntilFinal(uint64_t id) {
-    std::vector<double> seen;
-    const auto deadline = std::chrono::steady_clock::now() + 15s;
-    DriveStatus s = drive_->GetStatus();
-    while (std::chrono::steady_clock::now() < deadline) {
-      if (s.last_command && s.last_command->id == id && s.last_command->progress) {
-        seen.push_back(*s.last_command->progress);
-      }
-      if (IsFinal(drive_->GetCommand(id)->state) && s.last_command && s.last_command->id == id &&
-          IsFinal(s.last_command->state)) {
-        break;
-      }
-      if (IsFinal(drive_->GetCommand(id)->state) && (!s.last_command || s.last_command->id != id)) {
-        break;  // a newer command is the newest one now
-      }
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return seen;
+    return test_support::WatchProgress(*drive_, id, 15s).progress;
   }
 
   CanBusConfig bus_;
@@ -153,14 +126,7 @@ TEST_F(StoberCurveTest, RunsToTheEndPointDone_ProgressRisesToOneInTheStatus) {
   EXPECT_THAT(done.message, HasSubstr("end point 20 mm reached"));
   ASSERT_TRUE(done.progress.has_value());
   EXPECT_DOUBLE_EQ(*done.progress, 1.0);
-  ASSERT_GE(progress.size(), 3u);
-  for (size_t i = 1; i < progress.size(); ++i) {
-    EXPECT_GE(progress[i], progress[i - 1]) << "snapshot " << i;
-  }
-  EXPECT_DOUBLE_EQ(progress.back(), 1.0);
-  // Some snapshots showed the run under way, not only its ends.
-  EXPECT_TRUE(
-      std::any_of(progress.begin(), progress.end(), [](double p) { return p > 0.05 && p < 0.95; }));
+  test_support::ExpectProgressRisesToOne(progress);
   EXPECT_NEAR(SimPosition(), 20, CurveRunOptions{}.start_tolerance_mm);
   // The cyclic command was stopped after DONE and RPDO4 has its default mapping: the axis stands
   // ENABLED and an ordinary move works.

@@ -22,6 +22,7 @@
 #include "adapters/trinamic/drive.h"
 #include "adapters/trinamic/factory.h"
 #include "sim/trinamic/server.h"
+#include "tests/support/curve_run_checks.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::trinamic {
@@ -40,21 +41,8 @@ std::string TempLink() {
       .string();
 }
 
-// A smooth stroke from `from` to `to` in `duration_s`: p = from + (to − from)(1 − cos(πt/T))/2,
-// sampled every 10 ms; it starts and ends at rest.
 Curve Stroke(double from, double to, double duration_s) {
-  PositionTimeCurve pt;
-  pt.time_step_s = 0.01;
-  const int n = static_cast<int>(std::lround(duration_s / pt.time_step_s));
-  for (int i = 0; i <= n; ++i) {
-    const double x = static_cast<double>(i) / n;
-    pt.positions_mm.push_back(
-        std::round(from + (to - from) * (1 - std::cos(std::numbers::pi * x)) / 2));
-  }
-  Curve c;
-  c.name = "stroke";
-  c.shape = pt;
-  return c;
+  return test_support::CosineStroke(from, to, duration_s, /*whole_units=*/true);
 }
 
 class TrinamicCurveTest : public ::testing::Test {
@@ -114,18 +102,7 @@ class TrinamicCurveTest : public ::testing::Test {
   }
   // Every progress value of command `id` the status stream showed until it ended.
   std::vector<double> ProgressUntilFinal(uint64_t id) {
-    std::vector<double> seen;
-    const auto deadline = std::chrono::steady_clock::now() + 15s;
-    DriveStatus s = drive_->GetStatus();
-    while (std::chrono::steady_clock::now() < deadline) {
-      const bool mine = s.last_command && s.last_command->id == id;
-      if (mine && s.last_command->progress) seen.push_back(*s.last_command->progress);
-      if (IsFinal(drive_->GetCommand(id)->state) && (!mine || IsFinal(s.last_command->state))) {
-        break;
-      }
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return seen;
+    return test_support::WatchProgress(*drive_, id, 15s).progress;
   }
 
   std::unique_ptr<TrinamicServer> server_;
@@ -143,13 +120,7 @@ TEST_F(TrinamicCurveTest, RunsToTheEndPointDone_ProgressRisesToOneInTheStatus) {
   EXPECT_THAT(done.message, HasSubstr("end point reached at 2000"));
   ASSERT_TRUE(done.progress.has_value());
   EXPECT_DOUBLE_EQ(*done.progress, 1.0);
-  ASSERT_GE(progress.size(), 3u);
-  for (size_t i = 1; i < progress.size(); ++i) {
-    EXPECT_GE(progress[i], progress[i - 1]) << "snapshot " << i;
-  }
-  EXPECT_DOUBLE_EQ(progress.back(), 1.0);
-  EXPECT_TRUE(
-      std::any_of(progress.begin(), progress.end(), [](double p) { return p > 0.05 && p < 0.95; }));
+  test_support::ExpectProgressRisesToOne(progress);
   // The PACK lands on a ramp's target exactly (§5.4).
   EXPECT_EQ(SimPosition(), 2000);
   const DriveStatus s = WaitUntil([](const DriveStatus& s) {

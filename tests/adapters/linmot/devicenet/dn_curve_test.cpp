@@ -25,6 +25,7 @@
 #include "adapters/linmot/devicenet/factory.h"
 #include "sim/linmot_devicenet/device.h"
 #include "sim/linmot_devicenet/server.h"
+#include "tests/support/curve_run_checks.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::linmot::devicenet {
@@ -52,20 +53,8 @@ CanBusConfig Bus(uint16_t port) {
   return bus;
 }
 
-// A smooth stroke from `from` to `to` in `duration_s`: p = from + (to − from)(1 − cos(πt/T))/2,
-// sampled every 10 ms; it starts and ends at rest.
 Curve Stroke(double from, double to, double duration_s) {
-  PositionTimeCurve pt;
-  pt.time_step_s = 0.01;
-  const int n = static_cast<int>(std::lround(duration_s / pt.time_step_s));
-  for (int i = 0; i <= n; ++i) {
-    const double x = static_cast<double>(i) / n;
-    pt.positions_mm.push_back(from + (to - from) * (1 - std::cos(std::numbers::pi * x)) / 2);
-  }
-  Curve c;
-  c.name = "stroke";
-  c.shape = pt;
-  return c;
+  return test_support::CosineStroke(from, to, duration_s);
 }
 
 class DnCurveTest : public ::testing::Test {
@@ -118,21 +107,9 @@ class DnCurveTest : public ::testing::Test {
   // Every progress value of command `id` the status stream showed until it ended, and whether
   // the stream showed MOVING while it ran.
   std::vector<double> ProgressUntilFinal(uint64_t id, bool* moving = nullptr) {
-    std::vector<double> seen;
-    const auto deadline = std::chrono::steady_clock::now() + kWait;
-    DriveStatus s = drive_->GetStatus();
-    while (std::chrono::steady_clock::now() < deadline) {
-      const bool mine = s.last_command && s.last_command->id == id;
-      if (mine && s.last_command->progress) seen.push_back(*s.last_command->progress);
-      if (mine && !IsFinal(s.last_command->state) && s.state == DriveState::kMoving && moving) {
-        *moving = true;
-      }
-      if (IsFinal(drive_->GetCommand(id)->state) && (!mine || IsFinal(s.last_command->state))) {
-        break;
-      }
-      s = drive_->WaitForStatus(s.sequence, deadline);
-    }
-    return seen;
+    test_support::ProgressTrace t = test_support::WatchProgress(*drive_, id, kWait);
+    if (moving != nullptr && t.moving) *moving = true;
+    return t.progress;
   }
   // Distinct Set Position Setpoint (0x11) values the gateway's polls carried (layout P: control
   // word, then the Addressed In command word and value, little-endian; §7.8).
@@ -166,13 +143,7 @@ TEST_F(DnCurveTest, RunsToTheEndPointDone_ProgressRisesToOneInTheStatus) {
   EXPECT_THAT(done.message, HasSubstr("end point reached at 100"));
   ASSERT_TRUE(done.progress.has_value());
   EXPECT_DOUBLE_EQ(*done.progress, 1.0);
-  ASSERT_GE(progress.size(), 3u);
-  for (size_t i = 1; i < progress.size(); ++i) {
-    EXPECT_GE(progress[i], progress[i - 1]) << "snapshot " << i;
-  }
-  EXPECT_DOUBLE_EQ(progress.back(), 1.0);
-  EXPECT_TRUE(
-      std::any_of(progress.begin(), progress.end(), [](double p) { return p > 0.05 && p < 0.95; }));
+  test_support::ExpectProgressRisesToOne(progress);
   EXPECT_TRUE(moving);
   // Decision 987: 1 s at a 10 ms poll = 10 legs of 100 ms, each its own set-point on the wire,
   // the last one the end point (100 mm = 5120 increments, §0.5).
