@@ -8,7 +8,8 @@ PKGS=(build-essential cmake ninja-build pkg-config ccache clang
   python3-grpcio curl
   openssl libssl-dev
   python3-can python3-msgpack
-  qemu-system-x86 busybox-static cpio kmod xz-utils)
+  qemu-system-x86 busybox-static cpio kmod xz-utils
+  chromium)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -47,16 +47,19 @@ export async function loadSession() {
     Object.assign(session, await get('/v1/whoami'), { loaded: true });
   } catch (e) {
     if (e.status !== 404) throw e;
-    // A gateway without /v1/whoami: open mode runs every call as anonymous admin (decision 015).
+    // A gateway without /v1/whoami (older than issue 8): the API still decides every call.
+    // Open mode runs every call as anonymous admin (decision 015); with a token the role is
+    // unknown here, so buttons stay usable and the API's 403 says what is refused.
     await get('/v1/drives');
-    Object.assign(session, { principal: 'anonymous', role: 'admin', auth_enabled: false, loaded: true });
+    const role = token.get() ? 'unknown' : 'admin';
+    Object.assign(session, { principal: token.get() ? 'token' : 'anonymous', role, auth_enabled: !!token.get(), loaded: true });
   }
   return session;
 }
 
 // Roles of decision 015: viewer < operator < engineer < admin.
 const RANK = { viewer: 0, operator: 1, engineer: 2, admin: 3 };
-export const can = (need) => (RANK[session.role] ?? -1) >= RANK[need];
+export const can = (need) => session.role === 'unknown' || (RANK[session.role] ?? -1) >= RANK[need];
 
 // Polls a command handle until it leaves BUSY/ACTIVE; onUpdate sees every state.
 export async function follow(handle, onUpdate) {

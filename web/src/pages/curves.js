@@ -10,7 +10,7 @@ export async function render(root) {
   const plotBox = h('div', { 'data-testid': 'curve-plot', class: 'chart' });
   const select = h('select', { 'data-testid': 'curve-drive' }, drives.map((d) => h('option', { value: short(d.name) }, short(d.name))));
   const state = h('div', { 'data-testid': 'curve-run-state' });
-  const msg = h('div');
+  const msg = h('div', { 'data-testid': 'curve-error' });
   const engineer = can('engineer');
   let chosen = null;
   let plot = null;

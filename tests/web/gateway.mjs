@@ -1,0 +1,149 @@
+// The real drivegw for the browser tests: its embedded demo (simulated LinMot drives on
+// loopback UDP, docs/config.md "Demo drives") on free HTTP/gRPC ports with a temp data dir,
+// tokens made with `drivegw token create` on the test's database (decision 015).
+import { spawn, execFileSync } from 'node:child_process';
+import fs from 'node:fs';
+import http from 'node:http';
+import net from 'node:net';
+import path from 'node:path';
+
+export function freePort() {
+  return new Promise((resolve, reject) => {
+    const s = net.createServer();
+    s.once('error', reject);
+    s.listen(0, '127.0.0.1', () => {
+      const { port } = s.address();
+      s.close(() => resolve(port));
+    });
+  });
+}
+
+export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+// Polls `fn` until it returns a truthy value or `ms` pass (then throws naming `what`).
+export async function waitFor(what, fn, ms = 10000) {
+  const end = Date.now() + ms;
+  let last;
+  while (Date.now() < end) {
+    try {
+      const v = await fn();
+      if (v) return v;
+    } catch (e) {
+      last = e;
+    }
+    await sleep(100);
+  }
+  throw new Error(`timed out waiting for ${what}${last ? `: ${last.message}` : ''}`);
+}
+
+export class Gateway {
+  constructor(binary, dir, { auth = false } = {}) {
+    this.binary = binary;
+    this.dir = dir;
+    this.auth = auth;
+  }
+
+  async start() {
+    fs.mkdirSync(this.dir, { recursive: true });
+    this.httpPort = await freePort();
+    this.grpcPort = await freePort();
+    this.config = path.join(this.dir, 'gw.yaml');
+    fs.writeFileSync(
+      this.config,
+      [
+        `listen: {grpc: 127.0.0.1:${this.grpcPort}, http: 127.0.0.1:${this.httpPort}}`,
+        `data_dir: ${path.join(this.dir, 'data')}`,
+        `auth: {enabled: ${this.auth}}`,
+        'shutdown_timeout_s: 5',
+        '',
+      ].join('\n'),
+    );
+    if (this.auth) this.adminToken = this.token('admin');
+    const log = fs.openSync(path.join(this.dir, 'drivegw.log'), 'w');
+    this.proc = spawn(this.binary, ['--config', this.config], { stdio: ['ignore', log, log] });
+    this.exited = new Promise((r) => this.proc.once('exit', r));
+    this.base = `http://127.0.0.1:${this.httpPort}`;
+    await waitFor('the gateway to answer /v1/drives with every demo drive', async () => {
+      const r = await this.rest('GET', '/v1/drives');
+      return r.status === 200 && r.body.drives?.length >= 2 && r.body.drives.every((d) => d.status?.state && d.status.state !== 'OFFLINE');
+    }, 20000);
+    return this;
+  }
+
+  // `drivegw token create` prints the token once on stdout.
+  token(role) {
+    return execFileSync(this.binary, ['token', 'create', '--name', `web-${role}-${Date.now()}`, '--role', role, '--config', this.config], {
+      stdio: ['ignore', 'pipe', 'pipe'],
+    })
+      .toString()
+      .trim()
+      .split('\n')
+      .pop()
+      .trim();
+  }
+
+  async rest(method, p, body, token = this.adminToken) {
+    const headers = { 'Content-Type': 'application/json' };
+    if (token) headers.Authorization = `Bearer ${token}`;
+    const r = await fetch(this.base + p, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
+    const text = await r.text();
+    let json = null;
+    try {
+      json = JSON.parse(text);
+    } catch {
+      json = text;
+    }
+    return { status: r.status, body: json, headers: r.headers };
+  }
+
+  async stop() {
+    if (!this.proc || this.proc.exitCode !== null) return;
+    this.proc.kill('SIGTERM');
+    const t = setTimeout(() => this.proc.kill('SIGKILL'), 8000);
+    await this.exited;
+    clearTimeout(t);
+  }
+}
+
+// Where the browser loads the app: the gateway itself when it serves the dashboard (GET / ->
+// index.html, issue 8); otherwise a stand-in that serves web/dist and forwards /v1 (and
+// WebSocket upgrades) to the gateway, so the app is tested against the real API either way.
+export async function appOrigin(gw, dist) {
+  const r = await fetch(`${gw.base}/`).catch(() => null);
+  const html = r && r.ok ? await r.text() : '';
+  if (html.includes('data-testid="nav-fleet"')) return { origin: gw.base, served: 'gateway', close: async () => {} };
+  if (!fs.existsSync(path.join(dist, 'index.html'))) throw new Error(`${dist}/index.html missing: run scripts/build-web.sh`);
+  const types = { '.html': 'text/html', '.js': 'text/javascript', '.css': 'text/css', '.svg': 'image/svg+xml' };
+  const server = http.createServer((req, res) => {
+    if (req.url.startsWith('/v1/') || req.url.startsWith('/openapi')) {
+      const up = http.request(`${gw.base}${req.url}`, { method: req.method, headers: req.headers }, (ur) => {
+        res.writeHead(ur.statusCode, ur.headers);
+        ur.pipe(res);
+      });
+      up.on('error', () => res.destroy());
+      return void req.pipe(up);
+    }
+    const file = req.url === '/' ? 'index.html' : req.url.split('?')[0].replace(/^\/+/, '');
+    const full = path.join(dist, path.normalize(file));
+    if (!full.startsWith(dist) || !fs.existsSync(full) || fs.statSync(full).isDirectory()) return void res.writeHead(404).end();
+    res.writeHead(200, { 'Content-Type': types[path.extname(full)] || 'application/octet-stream' });
+    fs.createReadStream(full).pipe(res);
+  });
+  server.on('upgrade', (req, socket, head) => {
+    const up = net.connect(gw.httpPort, '127.0.0.1', () => {
+      up.write(`${req.method} ${req.url} HTTP/1.1\r\n${Object.entries(req.headers).map(([k, v]) => `${k}: ${v}`).join('\r\n')}\r\n\r\n`);
+      up.write(head);
+      up.pipe(socket);
+      socket.pipe(up);
+    });
+    up.on('error', () => socket.destroy());
+    socket.on('error', () => up.destroy());
+  });
+  const port = await freePort();
+  await new Promise((r) => server.listen(port, '127.0.0.1', r));
+  return {
+    origin: `http://127.0.0.1:${port}`,
+    served: 'stand-in for web/dist (the gateway does not serve the dashboard)',
+    close: () => new Promise((r) => (server.closeAllConnections(), server.close(r))),
+  };
+}
