@@ -11,7 +11,8 @@ export async function render(root) {
   const select = h('select', { 'data-testid': 'curve-drive' }, drives.map((d) => h('option', { value: short(d.name) }, short(d.name))));
   const state = h('div', { 'data-testid': 'curve-run-state' });
   const msg = h('div', { 'data-testid': 'curve-error' });
-  const engineer = can('engineer');
+  // RunCurve needs the operator role (decision 015's table: motion and power).
+  const operator = can('operator');
   let chosen = null;
   let plot = null;
 
@@ -80,7 +81,7 @@ export async function render(root) {
       'Drive ',
       select,
       ' ',
-      h('button', { 'data-testid': 'btn-run-curve', onclick: runCurve, disabled: !engineer, hidden: !engineer }, 'Run curve'),
+      h('button', { 'data-testid': 'btn-run-curve', onclick: runCurve, disabled: !operator, hidden: !operator }, 'Run curve'),
     ),
     state,
     msg,
