@@ -11,5 +11,7 @@ export CCACHE_MAXSIZE=${CCACHE_MAXSIZE:-5G}
 if [ ! -f "$BUILD_DIR/build.ninja" ]; then
   cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=${BUILD_TYPE:-RelWithDebInfo}
 fi
+# The dashboard first: web/dist is embedded into drivegw (decision 505).
+scripts/build-web.sh
 # Two cores; Beast translation units need ~1 GB each, so two jobs is the ceiling.
 ninja -C "$BUILD_DIR" -j "${JOBS:-2}" "$@"

@@ -10,6 +10,10 @@ PKGS=(build-essential cmake ninja-build pkg-config ccache clang
   python3-can python3-msgpack
   qemu-system-x86 busybox-static cpio kmod xz-utils
   chromium)
+# The dashboard (web/, scripts/build-web.sh) needs Node.js and npm; a newer one installed
+# outside apt (nvm, NodeSource) is kept, Debian's packages only fill the gap.
+command -v node >/dev/null 2>&1 || PKGS+=(nodejs)
+command -v npm >/dev/null 2>&1 || PKGS+=(npm)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

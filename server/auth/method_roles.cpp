@@ -83,6 +83,7 @@ constexpr Entry kTable[] = {
     {"TokenService", "CreateToken", A},
     {"TokenService", "ListTokens", A},
     {"TokenService", "RevokeToken", A},
+    {"TokenService", "WhoAmI", V},  // the caller's own identity (issue 8 dashboard)
 };
 
 }  // namespace

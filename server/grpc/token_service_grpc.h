@@ -25,6 +25,9 @@ class TokenServiceGrpc final : public v1::TokenService::CallbackService {
                                    v1::Resp* resp) override;
   DGW_TOKEN_RPCS(DGW_TOKEN_RPC)
 #undef DGW_TOKEN_RPC
+  // The caller's principal and role as CallAuth found them (no core, no storage).
+  grpc::ServerUnaryReactor* WhoAmI(grpc::CallbackServerContext* ctx, const v1::WhoAmIRequest* req,
+                                   v1::WhoAmIResponse* resp) override;
 
  private:
   auth::TokenServiceCore& core_;

@@ -32,6 +32,7 @@
 #include "google/protobuf/util/json_util.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
+#include "server/rest/static_assets.h"
 
 namespace drivegw::rest {
 namespace pb = google::protobuf;
@@ -260,31 +261,6 @@ JsonError SplitJsonError(absl::string_view message) {
   }
   absl::ConsumePrefix(&message, ": ");
   return {{}, std::string(message)};
-}
-
-std::string_view ContentTypeFor(const std::filesystem::path& file) {
-  static const std::map<std::string, std::string_view> kTypes = {
-      {".html", "text/html; charset=utf-8"},
-      {".htm", "text/html; charset=utf-8"},
-      {".js", "text/javascript; charset=utf-8"},
-      {".mjs", "text/javascript; charset=utf-8"},
-      {".css", "text/css; charset=utf-8"},
-      {".json", "application/json"},
-      {".map", "application/json"},
-      {".svg", "image/svg+xml"},
-      {".png", "image/png"},
-      {".jpg", "image/jpeg"},
-      {".jpeg", "image/jpeg"},
-      {".gif", "image/gif"},
-      {".ico", "image/x-icon"},
-      {".webp", "image/webp"},
-      {".txt", "text/plain; charset=utf-8"},
-      {".wasm", "application/wasm"},
-      {".woff", "font/woff"},
-      {".woff2", "font/woff2"},
-  };
-  const auto it = kTypes.find(absl::AsciiStrToLower(file.extension().string()));
-  return it == kTypes.end() ? std::string_view("application/octet-stream") : it->second;
 }
 
 grpc::ByteBuffer ToByteBuffer(const std::string& bytes) {
@@ -805,6 +781,10 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
       sink->OnResponse(ServeStatic(path));
       return;
     }
+    if (method == "GET" && options_.web_assets != nullptr) {
+      sink->OnResponse(ServeWebAsset(*options_.web_assets, *PercentDecode(path)));
+      return;
+    }
     sink->OnResponse(
         ErrorResponse(404, kNotFound, absl::StrCat("no route for ", method, " ", Av(path))));
   } catch (const std::exception& e) {
@@ -999,7 +979,7 @@ HttpResponse Router::ServeStatic(std::string_view path) const {
     return ErrorResponse(500, kInternal, absl::StrCat("cannot read static file for ", Av(path)));
   }
   HttpResponse r;
-  r.content_type = std::string(ContentTypeFor(file));
+  r.content_type = std::string(ContentTypeFor(file.string()));
   r.body = std::move(body);
   return r;
 }

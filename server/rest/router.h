@@ -23,6 +23,8 @@ class Channel;
 
 namespace drivegw::rest {
 
+struct WebAssetSet;
+
 struct HttpRequest {
   std::string method;  // "GET", "POST", ... as sent
   std::string target;  // origin-form: "/v1/drives:watch?names=x1&max_rate_hz=10"
@@ -96,8 +98,11 @@ struct RouterOptions {
   // Further services served from the same channel (the gateway adds ParameterSetService,
   // decision 011).
   std::vector<std::string> more_services;
-  std::string openapi_json;                       // served at GET /openapi.json
-  std::string static_dir;                         // served at GET /... when set
+  std::string openapi_json;  // served at GET /openapi.json
+  std::string static_dir;    // served at GET /... when set
+  // The embedded dashboard (GET /, /assets/<file>; decision 505) when static_dir is empty;
+  // null: none.
+  const WebAssetSet* web_assets = nullptr;
   std::chrono::milliseconds call_timeout{30000};  // deadline of unary calls
   std::chrono::milliseconds health_timeout{1000};
   // Fixed GET routes answered inline without gRPC (issue 7: /metrics, /readyz; decision 021);

@@ -27,6 +27,8 @@
 #include "absl/strings/str_cat.h"
 #include "adapters/core/log.h"
 #include "server/rest/router.h"
+#include "server/rest/session_registry.h"
+#include "server/rest/ws_session.h"
 
 namespace drivegw::rest {
 namespace {
@@ -62,20 +64,13 @@ bool IsParseError(const error_code& ec) {
   return ec.category() == http::make_error_code(http::error::bad_target).category();
 }
 
-// What RestServer::Stop needs of a session, whatever its stream.
-class SessionBase : public std::enable_shared_from_this<SessionBase> {
- public:
-  virtual ~SessionBase() = default;
-  virtual void CloseNow() = 0;
-};
-
 // State every session reads; owned by RestServer::Impl, which outlives the sessions.
 struct Shared {
   RestOptions options;
   std::unique_ptr<Router> router;
   std::optional<net::ssl::context> tls;  // set for HTTPS
-  std::mutex sessions_mu;
-  std::map<SessionBase*, std::weak_ptr<SessionBase>> sessions;
+  SessionRegistry sessions;              // HTTP and WebSocket connections
+  WsStats ws_stats;
 };
 
 // One connection over `Stream` (tcp::socket, or TlsStream for HTTPS). All members are touched
@@ -101,15 +96,11 @@ class Session final : public SessionBase {
     for (auto& slot : slots_) {
       if (slot.stream) slot.stream->Cancel();
     }
-    std::lock_guard lock(shared_.sessions_mu);
-    shared_.sessions.erase(this);
+    shared_.sessions.Remove(this);
   }
 
   void Run() {
-    {
-      std::lock_guard lock(shared_.sessions_mu);
-      shared_.sessions.emplace(this, weak_from_this());
-    }
+    shared_.sessions.Add(this, weak_from_this());
     net::post(stream_.get_executor(), [self = Self()] {
       if constexpr (kTls) {
         self->DoHandshake();
@@ -276,6 +267,18 @@ class Session final : public SessionBase {
     }
 
     auto req = parser_->release();
+    // GET /v1/drives:ws with Upgrade: websocket leaves HTTP for good (RFC 6455 §4.2; decision
+    // 504): the socket moves to a WsSession. Only on an otherwise idle connection, so no
+    // response of this session is still owed.
+    if (accepting_ && slots_.empty() && !writing_ && IsWsUpgrade(req)) {
+      closed_ = true;
+      idle_timer_.cancel();
+      write_timer_.cancel();
+      StartWsSession(std::move(stream_), std::move(req),
+                     WsContext{shared_.router.get(), &shared_.sessions, &shared_.ws_stats,
+                               shared_.options.read_timeout, peer_, client_cn_});
+      return;
+    }
     if (!accepting_) {  // requests after "Connection: close" are ignored; keep watching EOF
       DoRead();
       return;
@@ -612,6 +615,7 @@ absl::StatusOr<std::unique_ptr<RestServer>> RestServer::Start(RestOptions option
   router_options.openapi_json = options.openapi_json;
   router_options.more_services = options.more_services;
   router_options.static_dir = options.static_dir;
+  router_options.web_assets = options.web_assets;
   router_options.fixed_routes = options.fixed_routes;
   auto router = Router::Create(std::move(router_options));
   if (!router.ok()) return router.status();
@@ -668,6 +672,8 @@ RestServer::~RestServer() { Stop(); }
 
 uint16_t RestServer::port() const { return impl_->port; }
 
+const WsStats& RestServer::ws_stats() const { return impl_->shared.ws_stats; }
+
 void RestServer::Stop() {
   if (impl_->stopped.exchange(true)) return;
   // Cancelled calls complete promptly and only post to their sessions; new requests get 503.
@@ -681,13 +687,7 @@ void RestServer::Stop() {
   error_code ec;
   impl_->acceptor.close(ec);
   impl_->accept_retry.cancel();
-  std::vector<std::shared_ptr<SessionBase>> sessions;
-  {
-    std::lock_guard lock(impl_->shared.sessions_mu);
-    for (auto& [ptr, weak] : impl_->shared.sessions) {
-      if (auto s = weak.lock()) sessions.push_back(std::move(s));
-    }
-  }
+  std::vector<std::shared_ptr<SessionBase>> sessions = impl_->shared.sessions.Live();
   for (auto& s : sessions) s->CloseNow();
   sessions.clear();
   try {

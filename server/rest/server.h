@@ -14,7 +14,9 @@
 
 #include "absl/status/statusor.h"
 #include "server/rest/router.h"
+#include "server/rest/static_assets.h"
 #include "server/rest/tls_context.h"
+#include "server/rest/ws_stats.h"
 
 namespace grpc {
 class Channel;
@@ -29,7 +31,10 @@ struct RestOptions {
   std::string openapi_json;                // served at GET /openapi.json
   std::vector<std::string> more_services;  // RouterOptions::more_services
   std::string static_dir;                  // served at GET / ... (empty: none)
-  size_t body_limit = 1 << 20;             // larger request bodies get 413
+  // The dashboard served at GET / and /assets/<file> when static_dir is empty (decision 505);
+  // tests put a fixture set here.
+  const WebAssetSet* web_assets = &EmbeddedWebAssets();
+  size_t body_limit = 1 << 20;  // larger request bodies get 413
   // Deadline for a whole request once the connection is idle, and for every write.
   std::chrono::seconds read_timeout{30};
   int threads = 2;
@@ -52,6 +57,8 @@ class RestServer {
   RestServer& operator=(const RestServer&) = delete;
 
   uint16_t port() const;
+  // Counters of the WebSocket status stream (GET /v1/drives:ws; decision 504).
+  const WsStats& ws_stats() const;
   // Stops accepting, cancels streams and calls in flight, closes connections and joins the
   // threads. Idempotent; not to be called from a handler thread. Call it before shutting
   // down the gRPC server behind `channel` (docs/decisions/501-rest-transcoding.md, item 9).
