@@ -156,6 +156,14 @@ void CanopenMaster::WakeReceiver() {
   channel_->Wake();
 }
 
+void CanopenMaster::SetNodeLabel(uint8_t node, const std::string& family,
+                                 const std::string& drive) {
+  std::lock_guard lock(mu_);
+  Node& n = nodes_[node];
+  n.family = family;
+  n.drive = drive;
+}
+
 void CanopenMaster::SetNodeTrace(uint8_t node, const std::string& drive) {
   std::lock_guard lock(trace_mu_);
   if (drive.empty()) {

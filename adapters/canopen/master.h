@@ -260,6 +260,10 @@ class CanopenMaster {
   // carries the node (predefined connection set, CiA 301 §7.3.3; configured TPDOs by their
   // COB-ID) is logged naming `drive`. An empty `drive` ends it.
   void SetNodeTrace(uint8_t node, const std::string& drive);
+  // Names node `node` for round-trip metrics (wire::ObserveRoundTrip): every SDO transfer that
+  // ends OK reports its time from the first frame sent to completion under `family`/`drive`
+  // (queue waits excluded: they measure the caller, not the wire). Empty `drive`: not reported.
+  void SetNodeLabel(uint8_t node, const std::string& family, const std::string& drive);
 
  private:
   struct SdoRequest {
@@ -268,6 +272,7 @@ class CanopenMaster {
     std::string context;         // "sdo upload 0x6041:00 node 5"
     TimePoint deadline{};        // the caller's
     TimePoint frame_deadline{};  // the current exchange's
+    TimePoint started_at{};      // first frame sent
     bool started = false;
     bool done = false;
     absl::StatusOr<std::vector<uint8_t>> result = std::vector<uint8_t>();
@@ -282,6 +287,7 @@ class CanopenMaster {
     std::deque<std::shared_ptr<SdoRequest>> sdo;  // front: active once started
     Heartbeat heartbeat;
     std::optional<NmtState> nmt;
+    std::string family, drive;  // SetNodeLabel
   };
   struct Notification {
     enum class Kind : uint8_t { kHeartbeat, kBootUp, kEmcy, kTpdo, kLink } kind = Kind::kLink;

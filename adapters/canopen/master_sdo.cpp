@@ -10,6 +10,7 @@
 #include "adapters/canopen/master.h"
 #include "adapters/canopen/status_util.h"
 #include "adapters/core/log.h"
+#include "adapters/core/wire_observer.h"
 
 namespace drivegw::canopen {
 namespace {
@@ -83,6 +84,7 @@ void CanopenMaster::PumpSdoLocked(Node& n, TimePoint now) {
       continue;
     }
     r.started = true;
+    r.started_at = now;
     const transport::CanFrame first = r.transfer.Start();
     r.frame_deadline = now + options_.sdo_timeout;
     if (absl::Status s = SendFrame(first); !s.ok()) {
@@ -99,6 +101,9 @@ void CanopenMaster::CompleteSdoLocked(Node& n, absl::StatusOr<std::vector<uint8_
   n.sdo.pop_front();
   if (result.ok()) {
     ++counters_.sdo_transfers;
+    if (r->started && !n.drive.empty()) {
+      wire::ObserveRoundTrip(n.family, n.drive, clock_.Now() - r->started_at);
+    }
   } else {
     ++counters_.sdo_failures;
   }

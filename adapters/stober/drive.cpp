@@ -114,6 +114,7 @@ absl::Status StoberDrive::DoActivate() {
   if (!master.ok()) return Annotate(master.status(), Prefix("Activate"));
   auto id = (*master)->AddNodeObserver(node_, this);
   if (!id.ok()) return Annotate(id.status(), Prefix("Activate"));
+  (*master)->SetNodeLabel(node_, config().family, config().name);  // SDO round-trip metrics
   {
     std::lock_guard lock(mu_);
     master_ = *master;
@@ -152,7 +153,10 @@ void StoberDrive::DoDeactivate() {
     observer_.reset();
   }
   if (master && observer) master->RemoveNodeObserver(*observer);
-  if (master) master->SetNodeTrace(node_, "");  // the bus master outlives this drive
+  if (master) {  // the bus master outlives this drive
+    master->SetNodeTrace(node_, "");
+    master->SetNodeLabel(node_, "", "");
+  }
   std::lock_guard lock(mu_);
   EndTrackerLocked(CommandState::kAborted, "drive deactivated");
   configured_ = false;

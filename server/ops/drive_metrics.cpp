@@ -133,7 +133,7 @@ void RoundTripSink(std::string_view family, std::string_view drive, double secon
       Histogram& created = DefaultRegistry().GetHistogram(
           "drivegw_wire_round_trip_seconds",
           "Request to reply on the wire: LinUDP telegram, DeviceNet explicit message, Trinamic "
-          "instruction (per controller line).",
+          "instruction (per controller line), CANopen SDO transfer (first frame to completion).",
           LatencyBuckets(), {{"family", key.first}, {"drive", key.second}});
       it = cache.emplace(std::move(key), &created).first;
     }

@@ -135,6 +135,10 @@ TEST_F(OpsGatewayTest, Metrics_AfterMoveOverRest_DriveAndRpcCountsParsed) {
   auto mv = HttpRequest(http(), "POST", "/v1/drives/x1:moveAbsolute",
                         R"({"position_mm": 20, "velocity_mm_s": 500, "acceleration_mm_s2": 5000})");
   ASSERT_EQ(mv.status, 200) << mv.body;
+  // One SDO upload of the STOBER axis's status word (6041h) through the native pass-through.
+  auto sdo = HttpRequest(http(), "POST", "/v1/drives/s1:sendNativeCommand",
+                         R"({"canopen_sdo": {"index": 24641, "sub_index": 0}})");
+  ASSERT_EQ(sdo.status, 200) << sdo.body;
 
   auto metrics = HttpRequest(http(), "GET", "/metrics");
   ASSERT_EQ(metrics.status, 200);
@@ -162,10 +166,12 @@ TEST_F(OpsGatewayTest, Metrics_AfterMoveOverRest_DriveAndRpcCountsParsed) {
   EXPECT_GE(e.Sum("drivegw_rpc_duration_seconds_count",
                   {{"method", "MoveAbsolute"}, {"transport", "rest"}}),
             1);
-  // Round trips of the LinUDP telegrams and the Trinamic line.
+  // Round trips of the LinUDP telegrams, the Trinamic line and the STOBER axis's SDO transfers.
   EXPECT_GT(e.Sum("drivegw_wire_round_trip_seconds_count", {{"family", "linmot"}, {"drive", "x1"}}),
             0);
   EXPECT_GT(e.Sum("drivegw_wire_round_trip_seconds_count", {{"family", "trinamic"}}), 0);
+  EXPECT_GT(e.Sum("drivegw_wire_round_trip_seconds_count", {{"family", "stober"}, {"drive", "s1"}}),
+            0);
   // The move was audited: the audit write latency histogram has observations.
   EXPECT_GE(e.Sum("drivegw_audit_write_seconds_count"), 1);
 }
