@@ -15,7 +15,8 @@ async function setup(ctx) {
   console.log(`  dashboard served by: ${app.served}`);
   const page = await ctx.browser.newPage({ viewport: { width: 1280, height: 900 } });
   page.on('pageerror', (e) => console.log(`  page error: ${e.message}`));
-  env = { gw, app, page };
+  env = { gw, app, page, wsFrames: 0 };
+  page.on('websocket', (ws) => ws.on('framereceived', () => env.wsFrames++));
   return env;
 }
 
@@ -43,6 +44,10 @@ export const tests = [
       const r = await gw.rest('POST', '/v1/drives/x2:enable', {});
       expect(r.status === 200, `enable x2 over REST: ${r.status} ${JSON.stringify(r.body)}`);
       await text(tid(page, 'drive-card-x2').locator('[data-testid=state]'), /ENABLED/, 'card x2 to show ENABLED');
+      // A gateway that serves the dashboard has the WebSocket of issue 8: the cards must be fed
+      // by it, not by the app's NDJSON fallback.
+      if (app.served === 'gateway') expect(env.wsFrames > 0, 'no WebSocket frame received from /v1/drives:ws');
+      else console.log('  (no WebSocket check: the gateway does not serve the dashboard)');
       await shot(page, ctx.out, 'fleet');
     },
   ],

@@ -28,26 +28,31 @@ function showWho() {
   document.querySelector('.logout').hidden = !(session.loaded && session.auth_enabled);
 }
 
+let seq = 0;
+
 async function route() {
   if (cleanup) cleanup();
   cleanup = null;
-  root.replaceChildren();
+  // Each route renders into a fresh element: a slow page whose route was left meanwhile writes
+  // into a detached element and is cleaned up as soon as it returns.
+  const mine = ++seq;
+  const view = document.createElement('div');
+  root.replaceChildren(view);
   const hash = location.hash || '#/fleet';
   const found = routes.find(([re]) => re.test(hash));
   if (!found) return void (location.hash = '#/fleet');
   const [re, page] = found;
-  if (page !== login && !session.loaded) {
-    try {
-      await loadSession();
-    } catch (e) {
-      if (e.status === 401) return void (location.hash = '#/login');
-      root.textContent = `Gateway unreachable: ${e.message}`;
-      return;
-    }
+  try {
+    if (page !== login && !session.loaded) await loadSession();
+    showWho();
+    for (const a of document.querySelectorAll('nav a')) a.classList.toggle('active', hash.startsWith(a.getAttribute('href')));
+    const done = (await page.render(view, ...hash.match(re).slice(1).map(decodeURIComponent))) || null;
+    if (mine === seq) cleanup = done;
+    else if (done) done();
+  } catch (e) {
+    if (e.status === 401) return void (location.hash = '#/login');
+    if (mine === seq) view.replaceChildren(Object.assign(document.createElement('p'), { className: 'error', textContent: `${e.status ? `HTTP ${e.status}: ` : ''}${e.message}` }));
   }
-  showWho();
-  for (const a of document.querySelectorAll('nav a')) a.classList.toggle('active', hash.startsWith(a.getAttribute('href')));
-  cleanup = (await page.render(root, ...hash.match(re).slice(1).map(decodeURIComponent))) || null;
 }
 
 // Logging out forgets the token and the session; the login page asks again.
