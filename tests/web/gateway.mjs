@@ -63,10 +63,18 @@ export class Gateway {
     this.proc = spawn(this.binary, ['--config', this.config], { stdio: ['ignore', log, log] });
     this.exited = new Promise((r) => this.proc.once('exit', r));
     this.base = `http://127.0.0.1:${this.httpPort}`;
-    await waitFor('the gateway to answer /v1/drives with every demo drive', async () => {
-      const r = await this.rest('GET', '/v1/drives');
-      return r.status === 200 && r.body.drives?.length >= 2 && r.body.drives.every((d) => d.status?.state && d.status.state !== 'OFFLINE');
-    }, 20000);
+    // The demo's simulators bind fixed loopback ports (docs/config.md "Demo drives"): another
+    // demo on this machine (scripts/run-demo.sh) keeps its drives OFFLINE here; the log says so.
+    try {
+      await waitFor('the gateway to answer /v1/drives with every demo drive online', async () => {
+        if (this.proc.exitCode !== null) throw new Error(`drivegw exited with ${this.proc.exitCode}`);
+        const r = await this.rest('GET', '/v1/drives');
+        return r.status === 200 && r.body.drives?.length >= 2 && r.body.drives.every((d) => d.status?.state && d.status.state !== 'OFFLINE');
+      }, 20000);
+    } catch (e) {
+      const tail = fs.readFileSync(path.join(this.dir, 'drivegw.log'), 'utf8').split('\n').slice(-15).join('\n');
+      throw new Error(`${e.message}\n--- ${this.dir}/drivegw.log (end) ---\n${tail}`);
+    }
     return this;
   }
 
