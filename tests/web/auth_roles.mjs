@@ -13,6 +13,9 @@ async function setup(ctx) {
   env = { gw, app, viewer: gw.token('viewer'), operator: gw.token('operator') };
   const who = await gw.rest('GET', '/v1/whoami', undefined, env.viewer);
   env.noWhoami = who.status === 404;
+  // A stored set, so the parameter-sets page has buttons to gate (apply is the engineer's).
+  const c = await gw.rest('POST', '/v1/parameterSets', { name: 'roles', family: 'linmot', parameters: [] });
+  if (c.status !== 200) throw new Error(`create set: ${c.status} ${JSON.stringify(c.body)}`);
   return env;
 }
 
@@ -25,6 +28,16 @@ export async function teardown() {
 
 // Buttons a role may not use are hidden or disabled (both count).
 const usable = (loc) => loc.evaluate((b) => !b.hidden && !b.disabled && b.offsetParent !== null);
+
+// The parameter-sets page: diff for every role, dry run and apply for engineers (decision 015).
+async function gateCheck(page, app, want) {
+  await page.goto(`${app.origin}/#/parameter-sets`);
+  await tid(page, 'pset-row-roles').click();
+  await tid(page, 'btn-diff').waitFor({ timeout: 5000 });
+  for (const [id, key] of [['btn-diff', 'diff'], ['btn-dry-run', 'dryRun'], ['btn-apply', 'apply']]) {
+    expect((await usable(tid(page, id))) === want[key], `${id} usable: expected ${want[key]}`);
+  }
+}
 
 export const tests = [
   [
@@ -56,6 +69,9 @@ export const tests = [
       for (const b of ['btn-enable', 'btn-disable', 'btn-home', 'btn-ack', 'btn-move-absolute', 'btn-stop']) {
         expect(!(await usable(tid(page, b))), `${b} usable for a viewer`);
       }
+      const writes = await page.locator('[data-testid^=param-row-] button', { hasText: 'Write' }).count();
+      expect(writes === 0, `${writes} parameter Write buttons shown to a viewer`);
+      await gateCheck(page, app, { diff: true, dryRun: false, apply: false });
       await page.goto(`${app.origin}/#/curves`);
       await text(tid(page, 'curve-plot').locator('xpath=..'), /Curves/, 'curves page');
       expect(!(await usable(tid(page, 'btn-run-curve'))), 'btn-run-curve usable for a viewer');
@@ -80,6 +96,7 @@ export const tests = [
       await text(tid(page, 'drive-position'), (t) => Math.abs(Number.parseFloat(t) - 30) < 0.05, 'x1 at 30 mm', 15000);
       await text(tid(page, 'command-state'), /DONE/, 'move DONE');
       await shot(page, ctx.out, 'operator');
+      await gateCheck(page, app, { diff: true, dryRun: false, apply: false });
       await page.close();
     },
   ],
