@@ -52,7 +52,7 @@ export const tests = [
     },
   ],
   [
-    'enable and move x1 from the drive page; the position reaches the target',
+    'enable, home and move x1 (absolute, relative) from the drive page; the position reaches the target',
     async (ctx) => {
       const { app, page } = await setup(ctx);
       await page.goto(`${app.origin}/#/fleet`);
@@ -61,12 +61,20 @@ export const tests = [
       expect(page.url().endsWith('#/drives/x1'), `drive page URL ${page.url()}`);
       await tid(page, 'btn-enable').click();
       await text(tid(page, 'drive-state'), /ENABLED/, 'x1 ENABLED');
-      await tid(page, 'move-position').fill('72.5');
+      await tid(page, 'btn-home').click();
+      await text(tid(page, 'command-state'), /^Home: DONE/, 'home DONE', 15000);
+      await text(page.locator('main'), /(?<!not )homed,/, 'x1 reported homed');
+      await tid(page, 'move-position').fill('60');
       await tid(page, 'move-velocity').fill('500');
       await tid(page, 'move-acceleration').fill('5000');
       await tid(page, 'btn-move-absolute').click();
+      await text(tid(page, 'drive-position'), (t) => Math.abs(num(t) - 60) < 0.05, 'x1 position 60 mm', 15000);
+      await text(tid(page, 'command-state'), /^MoveAbsolute: DONE/, 'absolute move DONE', 15000);
+      // The same field as a distance: 60 + 12.5 mm.
+      await tid(page, 'move-position').fill('12.5');
+      await tid(page, 'btn-move-relative').click();
       await text(tid(page, 'drive-position'), (t) => Math.abs(num(t) - 72.5) < 0.05, 'x1 position 72.5 mm', 15000);
-      await text(tid(page, 'command-state'), /DONE/, 'move command DONE', 15000);
+      await text(tid(page, 'command-state'), /^MoveRelative: DONE/, 'relative move DONE', 15000);
       expect((await tid(page, 'chart-position').locator('canvas').count()) > 0, 'position chart has a canvas');
       await shot(page, ctx.out, 'drive-moved');
     },
