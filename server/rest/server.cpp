@@ -276,7 +276,8 @@ class Session final : public SessionBase {
       write_timer_.cancel();
       StartWsSession(std::move(stream_), std::move(req),
                      WsContext{shared_.router.get(), &shared_.sessions, &shared_.ws_stats,
-                               shared_.options.read_timeout, peer_, client_cn_});
+                               shared_.options.read_timeout, shared_.options.ws_send_buffer, peer_,
+                               client_cn_});
       return;
     }
     if (!accepting_) {  // requests after "Connection: close" are ignored; keep watching EOF

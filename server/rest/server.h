@@ -43,6 +43,9 @@ struct RestOptions {
   std::optional<RestTls> tls;
   // Deadline of the TLS handshake once the connection is accepted.
   std::chrono::seconds handshake_timeout{10};
+  // Kernel send buffer of a WebSocket connection (SO_SNDBUF; 0: the system's autotuning, up to
+  // MBs). With it, what a stalled browser costs is this plus one snapshot per drive (decision 504).
+  int ws_send_buffer = 64 * 1024;
   // RouterOptions::fixed_routes (GET /metrics, /readyz; decision 021).
   std::map<std::string, std::function<HttpResponse()>> fixed_routes;
 };

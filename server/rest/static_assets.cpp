@@ -66,14 +66,16 @@ std::string_view ContentTypeFor(std::string_view file_name) {
 }
 
 bool IsHashedName(std::string_view file_name) {
+  // Vite 5 names build output "[name]-[hash].[ext]" with an 8-character base64url hash, which
+  // may itself contain '-' (so count from the end, not from the last '-').
+  constexpr size_t kHash = 8;
   const size_t slash = file_name.rfind('/');
   std::string_view base = slash == std::string_view::npos ? file_name : file_name.substr(slash + 1);
   const size_t dot = base.find('.');
   if (dot == std::string_view::npos) return false;
   base = base.substr(0, dot);
-  const size_t dash = base.rfind('-');
-  if (dash == std::string_view::npos || base.size() - dash - 1 < 8) return false;
-  for (char c : base.substr(dash + 1)) {
+  if (base.size() < kHash + 2 || base[base.size() - kHash - 1] != '-') return false;
+  for (char c : base.substr(base.size() - kHash)) {
     if (!absl::ascii_isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') return false;
   }
   return true;

@@ -26,7 +26,7 @@ const WebAssetSet& EmbeddedWebAssets();
 // Content-Type for a file name by its extension (application/octet-stream if unknown).
 std::string_view ContentTypeFor(std::string_view file_name);
 
-// True for Vite's content-hashed names ("index-3f9a1c2b.js": a '-' then at least 8 characters of
+// True for Vite's content-hashed names ("index-3f9a1c2b.js": '-' and 8 characters of
 // [A-Za-z0-9_-] before the extension): they may be cached for good.
 bool IsHashedName(std::string_view file_name);
 

@@ -98,6 +98,11 @@ class WsSession final : public SessionBase {
   void Run(WsRequest request) {
     ctx_.sessions->Add(this, weak_from_this());
     target_ = std::string(Sv(request.target()));
+    if (ctx_.send_buffer > 0) {
+      error_code ec;  // best effort: the kernel clamps to its own minimum
+      beast::get_lowest_layer(ws_).set_option(net::socket_base::send_buffer_size(ctx_.send_buffer),
+                                              ec);
+    }
     websocket::stream_base::timeout timeout{};
     timeout.handshake_timeout = std::chrono::seconds(10);
     // Beast pings after half the idle time and closes when nothing (not even a pong) came back

@@ -30,6 +30,7 @@ struct WsContext {
   SessionRegistry* sessions;
   WsStats* stats;
   std::chrono::seconds idle_timeout;  // no frame (data or pong) for this long closes
+  int send_buffer;                    // SO_SNDBUF of the connection; 0: system default
   std::string peer;
   std::string client_cn;
 };
