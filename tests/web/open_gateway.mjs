@@ -80,6 +80,24 @@ export const tests = [
     },
   ],
   [
+    'a parameter write out of range shows the API message next to the parameter',
+    async (ctx) => {
+      const { gw, app, page } = await setup(ctx);
+      await page.goto(`${app.origin}/#/drives/x1`);
+      await text(tid(page, 'drive-state'), /\w/, 'drive page state');
+      const defs = (await gw.rest('GET', '/v1/families/linmot/parameterDefinitions')).body.definitions;
+      const p = defs.find((d) => d.name === '0x1721');
+      expect(p, '0x1721 in the linmot catalogue');
+      await tid(page, 'param-filter').fill(p.title);
+      const row = tid(page, `param-row-${p.id}`);
+      await text(row, (t) => t.includes(`${p.min} … ${p.max}`), 'the range in the row');
+      await row.locator('input').fill('-5');
+      await row.locator('button', { hasText: 'Write' }).click();
+      await text(row.locator('td').last(), /HTTP 400: .*Range Error/, 'the API message (the drive refuses -5 with Range Error)');
+      console.log(`  validation message: ${await row.locator('td').last().textContent()}`);
+    },
+  ],
+  [
     'a real drive fault shows on the drive page and is acknowledged from the UI',
     async (ctx) => {
       const { gw, page } = await setup(ctx);
