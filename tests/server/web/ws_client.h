@@ -5,32 +5,51 @@
 #include <boost/asio/connect.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/ssl/context.hpp>
+#include <boost/asio/ssl/stream.hpp>
 #include <boost/beast/core/buffers_to_string.hpp>
 #include <boost/beast/core/flat_buffer.hpp>
 #include <boost/beast/websocket.hpp>
+#include <boost/beast/websocket/ssl.hpp>
 #include <chrono>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <type_traits>
 
 namespace drivegw::rest::test_support {
 
-class WsClient {
+// NextLayer: tcp::socket (ws://) or ssl::stream<tcp::socket> (wss://, then pass the context).
+template <typename NextLayer>
+class BasicWsClient {
  public:
   static constexpr std::chrono::seconds kTimeout{20};
-  using Ws = boost::beast::websocket::stream<boost::asio::ip::tcp::socket>;
+  static constexpr bool kTls = !std::is_same_v<NextLayer, boost::asio::ip::tcp::socket>;
+  using Ws = boost::beast::websocket::stream<NextLayer>;
+
+  BasicWsClient() requires(!kTls) : ws_(ioc_) {}
+  explicit BasicWsClient(boost::asio::ssl::context& tls) requires(kTls) : ws_(ioc_, tls) {}
 
   // Connects to 127.0.0.1:port and completes the handshake for `target`. rcvbuf > 0 shrinks
   // the socket's receive buffer (a reader that falls behind fills it soon).
   bool Connect(uint16_t port, const std::string& target, int rcvbuf = 0) {
     namespace net = boost::asio;
     boost::beast::error_code ec;
-    auto& sock = ws_.next_layer();
+    auto& sock = boost::beast::get_lowest_layer(ws_);
     sock.open(net::ip::tcp::v4(), ec);
     if (rcvbuf > 0) sock.set_option(net::socket_base::receive_buffer_size(rcvbuf), ec);
     sock.connect({net::ip::make_address("127.0.0.1"), port}, ec);
     if (ec) return false;
     bool done = false;
+    if constexpr (kTls) {
+      ws_.next_layer().async_handshake(boost::asio::ssl::stream_base::client,
+                                       [&](boost::beast::error_code e) {
+                                         ec = e;
+                                         done = true;
+                                       });
+      if (!Run(done) || ec) return false;
+      done = false;
+    }
     ws_.async_handshake("127.0.0.1", target, [&](boost::beast::error_code e) {
       ec = e;
       done = true;
@@ -57,7 +76,7 @@ class WsClient {
   // Ends the TCP connection without a close frame (a browser tab killed).
   void Drop() {
     boost::beast::error_code ec;
-    ws_.next_layer().close(ec);
+    boost::beast::get_lowest_layer(ws_).close(ec);
   }
 
   void Close() {
@@ -89,8 +108,11 @@ class WsClient {
   }
 
   boost::asio::io_context ioc_;
-  Ws ws_{ioc_};
+  Ws ws_;
   boost::beast::error_code last_error_;
 };
+
+using WsClient = BasicWsClient<boost::asio::ip::tcp::socket>;
+using WssClient = BasicWsClient<boost::asio::ssl::stream<boost::asio::ip::tcp::socket>>;
 
 }  // namespace drivegw::rest::test_support
