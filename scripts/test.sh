@@ -4,6 +4,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
 scripts/build.sh
+# install-deps installed Chromium: the dashboard tests must run, not skip (tests/web/run.mjs).
+export DGW_REQUIRE_BROWSER=${DGW_REQUIRE_BROWSER:-1}
 echo "== unit, contract and end-to-end tests (ctest) =="
 ctest --test-dir "${BUILD_DIR:-build}" --output-on-failure -j 2 --timeout 300
 echo "== SocketCAN in qemu =="

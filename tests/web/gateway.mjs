@@ -3,7 +3,6 @@
 // tokens made with `drivegw token create` on the test's database (decision 015).
 import { spawn, execFileSync } from 'node:child_process';
 import fs from 'node:fs';
-import http from 'node:http';
 import net from 'node:net';
 import path from 'node:path';
 
@@ -113,45 +112,13 @@ export class Gateway {
   }
 }
 
-// Where the browser loads the app: the gateway itself when it serves the dashboard (GET / ->
-// index.html, issue 8); otherwise a stand-in that serves web/dist and forwards /v1 (and
-// WebSocket upgrades) to the gateway, so the app is tested against the real API either way.
-export async function appOrigin(gw, dist) {
-  const r = await fetch(`${gw.base}/`).catch(() => null);
-  const html = r && r.ok ? await r.text() : '';
-  if (html.includes('data-testid="nav-fleet"')) return { origin: gw.base, served: 'gateway', close: async () => {} };
-  if (!fs.existsSync(path.join(dist, 'index.html'))) throw new Error(`${dist}/index.html missing: run scripts/build-web.sh`);
-  const types = { '.html': 'text/html', '.js': 'text/javascript', '.css': 'text/css', '.svg': 'image/svg+xml' };
-  const server = http.createServer((req, res) => {
-    if (req.url.startsWith('/v1/') || req.url.startsWith('/openapi')) {
-      const up = http.request(`${gw.base}${req.url}`, { method: req.method, headers: req.headers }, (ur) => {
-        res.writeHead(ur.statusCode, ur.headers);
-        ur.pipe(res);
-      });
-      up.on('error', () => res.destroy());
-      return void req.pipe(up);
-    }
-    const file = req.url === '/' ? 'index.html' : req.url.split('?')[0].replace(/^\/+/, '');
-    const full = path.join(dist, path.normalize(file));
-    if (!full.startsWith(dist) || !fs.existsSync(full) || fs.statSync(full).isDirectory()) return void res.writeHead(404).end();
-    res.writeHead(200, { 'Content-Type': types[path.extname(full)] || 'application/octet-stream' });
-    fs.createReadStream(full).pipe(res);
-  });
-  server.on('upgrade', (req, socket, head) => {
-    const up = net.connect(gw.httpPort, '127.0.0.1', () => {
-      up.write(`${req.method} ${req.url} HTTP/1.1\r\n${Object.entries(req.headers).map(([k, v]) => `${k}: ${v}`).join('\r\n')}\r\n\r\n`);
-      up.write(head);
-      up.pipe(socket);
-      socket.pipe(up);
-    });
-    up.on('error', () => socket.destroy());
-    socket.on('error', () => up.destroy());
-  });
-  const port = await freePort();
-  await new Promise((r) => server.listen(port, '127.0.0.1', r));
-  return {
-    origin: `http://127.0.0.1:${port}`,
-    served: 'stand-in for web/dist (the gateway does not serve the dashboard)',
-    close: () => new Promise((r) => (server.closeAllConnections(), server.close(r))),
-  };
+// Where the browser loads the app: the gateway itself (GET / -> the embedded index.html, issue 8,
+// decision 505). A gateway that does not serve the dashboard fails the test.
+export async function appOrigin(gw) {
+  const r = await fetch(`${gw.base}/`).catch((e) => ({ ok: false, status: String(e) }));
+  const html = r.ok ? await r.text() : '';
+  if (!html.includes('data-testid="nav-fleet"')) {
+    throw new Error(`GET ${gw.base}/ did not return the dashboard (status ${r.status}): build web/ with scripts/build-web.sh (scripts/build.sh does)`);
+  }
+  return { origin: gw.base, served: 'gateway', close: async () => {} };
 }
