@@ -88,6 +88,16 @@ struct DriveStatus {
 
 enum class Lifecycle { kUnconfigured, kActive, kInactive };
 
+// Link health of the drive's session for the fleet card (issue 8): the counters the metrics read
+// (server/ops/drive_metrics.cpp) plus the last round trip the family passed to
+// wire::ObserveRoundTrip. Zero/empty while not ACTIVE or for a family that has none.
+struct LinkHealth {
+  uint64_t requests = 0;
+  uint64_t replies = 0;
+  uint64_t missed = 0;  // timeouts, missed replies or heartbeat losses, per family
+  std::optional<double> last_round_trip_ms;
+};
+
 class Drive {
  public:
   virtual ~Drive() = default;
@@ -187,6 +197,8 @@ class Drive {
   virtual absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) = 0;
 
   virtual DriveStatus GetStatus() const = 0;
+  // Not part of DriveStatus: the counters change every cycle, the snapshots only on a change.
+  virtual LinkHealth link_health() const { return {}; }
   virtual std::optional<CommandInfo> GetCommand(uint64_t id) const = 0;
   // Blocks until a snapshot newer than `after_sequence` exists or `deadline` (steady clock)
   // passes; returns the newest snapshot either way.

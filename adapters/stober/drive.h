@@ -81,6 +81,11 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   absl::StatusOr<NativeReply> SendNative(const NativeRequest& req) override;
 
   StoberDriveCounters counters() const;
+  // missed = heartbeat losses; the SDO round trip lives in the CANopen master: left empty.
+  LinkHealth link_health() const override {
+    const StoberDriveCounters c = counters();
+    return {c.rpdos, c.status_tpdos + c.actual_tpdos, c.heartbeat_losses, std::nullopt};
+  }
   // The bus master's counters (SYNC timing, SDO, PDO); nullopt while not ACTIVE.
   std::optional<canopen::MasterCounters> master_counters() const;
   // Frames of this node on the bus while ACTIVE (CanopenMaster::SetNodeTrace).

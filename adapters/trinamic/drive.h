@@ -74,6 +74,12 @@ class TrinamicDrive final : public DriveBase, private PackListener {
 
   // Diagnostics (dashboard); nullopt while not ACTIVE.
   TrinamicDriveCounters counters() const;
+  // missed = motion words the next `$20` did not confirm; the round trip is per controller line
+  // (session), not per axis: left empty.
+  LinkHealth link_health() const override {
+    const TrinamicDriveCounters c = counters();
+    return {c.words, c.samples, c.accept_failures, std::nullopt};
+  }
   std::optional<PackCounters> pack_counters() const;
   std::optional<SessionCounters> session_counters() const;
   uint8_t axis() const { return axis_; }

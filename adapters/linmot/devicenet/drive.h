@@ -90,6 +90,13 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
 
   // Diagnostics for the dashboard; nullopt while not ACTIVE.
   std::optional<PeerCounters> exchange_counters() const;
+  // As drive_metrics.cpp reads them; missed = poll and explicit timeouts.
+  LinkHealth link_health() const override {
+    const auto c = exchange_counters();
+    if (!c) return {};
+    return {c->polls_sent + c->explicit_requests, c->poll_responses,
+            c->poll_timeouts + c->explicit_timeouts, c->last_round_trip_ms};
+  }
   std::optional<SessionCounters> session_counters() const;
   const DnDriveOptions& options() const { return options_; }
 
@@ -124,12 +131,12 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
     uint64_t serial = 0;
     CommandSlot slot;
     const CommandSpec* spec = nullptr;
-    bool toggle = false;        // T-command: done when Command Toggle == T too
-    bool once = false;          // never answered (0x0F): carried by exactly one poll
+    bool toggle = false;         // T-command: done when Command Toggle == T too
+    bool once = false;           // never answered (0x0F): carried by exactly one poll
     std::optional<Motor> motor;  // whose Command Toggle a T-command flips
-    uint64_t first_gen = 0;     // first poll that carries it
-    bool error_before = false;  // ERROR Pending at submission
-    bool error_rose = false;    // ERROR Pending seen rising while in flight
+    uint64_t first_gen = 0;      // first poll that carries it
+    bool error_before = false;   // ERROR Pending at submission
+    bool error_rose = false;     // ERROR Pending seen rising while in flight
     bool done = false;
     CommandSlot response;
     StatusLowWord low_at_response;

@@ -746,8 +746,9 @@ void Session::HandleExplicitResponseLocked(Peer& p, std::span<const uint8_t> dat
   const Explicit request = *p.pending_explicit;
   p.pending_explicit.reset();
   // Sent at deadline - explicit_timeout (SendExplicitLocked): the request's round trip.
-  wire::ObserveRoundTrip("linmot-devicenet", p.options.name,
-                         now - (request.deadline - p.options.explicit_timeout));
+  const Duration round_trip = now - (request.deadline - p.options.explicit_timeout);
+  p.counters.last_round_trip_ms = std::chrono::duration<double, std::milli>(round_trip).count();
+  wire::ObserveRoundTrip("linmot-devicenet", p.options.name, round_trip);
   if (response->is_error()) ++p.counters.explicit_errors;
   OnExplicitResultLocked(p, request, *response, now);
 }

@@ -45,6 +45,7 @@ struct PeerCounters {
   uint64_t connects = 0;           // I/O connection established (set-up completed)
   uint64_t drive_restarts = 0;     // the drive's duplicate MAC ID check seen while connected
   uint64_t send_errors = 0;        // Send failures (bus off, full queue)
+  std::optional<double> last_round_trip_ms;  // last explicit request's (not summed)
 };
 
 struct SessionCounters {

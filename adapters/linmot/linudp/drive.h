@@ -78,6 +78,12 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
 
   // Diagnostics for the dashboard; nullopt while not ACTIVE.
   std::optional<ExchangeCounters> exchange_counters() const;
+  // missed = requests without a valid reply (timeouts), as drivegw_drive_wire_errors_total.
+  LinkHealth link_health() const override {
+    const auto c = exchange_counters();
+    if (!c) return {};
+    return {c->telegrams_sent, c->replies, c->timeouts, c->last_round_trip_ms};
+  }
   std::optional<SessionCounters> session_counters() const;
   std::optional<transport::Endpoint> local_endpoint() const;
 

@@ -266,8 +266,9 @@ void Session::HandleDatagramLocked(const transport::Datagram& d, TimePoint now) 
   p.consecutive_timeouts = 0;
   ++p.counters.replies;
   // Sent at reply_deadline - reply_timeout (ServiceLocked): the telegram's round trip.
-  wire::ObserveRoundTrip("linmot", p.options.name,
-                         now - (p.reply_deadline - p.options.reply_timeout));
+  const Duration round_trip = now - (p.reply_deadline - p.options.reply_timeout);
+  p.counters.last_round_trip_ms = std::chrono::duration<double, std::milli>(round_trip).count();
+  wire::ObserveRoundTrip("linmot", p.options.name, round_trip);
   SetLinkLocked(p, LinkState::kOnline);
   p.peer->OnReply(*reply, now);
 }

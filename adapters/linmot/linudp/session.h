@@ -31,6 +31,7 @@ struct ExchangeCounters {
   uint64_t malformed = 0;        // undecodable, short or missing asked-for blocks
   uint64_t late = 0;             // datagrams from the drive while no request was outstanding
   uint64_t header_mismatch = 0;  // bytes 0-3 differ from the request definition (A-02: logged only)
+  std::optional<double> last_round_trip_ms;  // per peer only (not summed)
 };
 
 struct SessionCounters {

@@ -138,6 +138,18 @@ TEST_F(LinMotUdpDriveTest, Activate_ReportsPowerUpStateWithoutTouchingTheDrive) 
   EXPECT_EQ(drive_->endpoint(), absl::StrCat("udp://127.0.0.1:", server_->port()));
 }
 
+// Issue 8 fleet card: the link health counts the cyclic exchange and keeps the last round trip.
+TEST_F(LinMotUdpDriveTest, LinkHealth_CountsRequestsRepliesAndRoundTrip) {
+  WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });
+  const LinkHealth h = drive_->link_health();
+  EXPECT_GT(h.requests, 0u);
+  EXPECT_GT(h.replies, 0u);
+  EXPECT_LE(h.replies, h.requests);
+  ASSERT_TRUE(h.last_round_trip_ms.has_value());
+  EXPECT_GE(*h.last_round_trip_ms, 0.0);
+  EXPECT_LE(*h.last_round_trip_ms, 30.0);  // reply_timeout: a later reply is a timeout
+}
+
 TEST_F(LinMotUdpDriveTest, Enable_FromPowerUp_DoneInOperationEnabled) {
   EnableOrDie();
   const DriveStatus s = drive_->GetStatus();
