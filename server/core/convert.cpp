@@ -93,6 +93,21 @@ v1::DriveStatus ToProto(const std::string& drive, const DriveStatus& s) {
   return p;
 }
 
+v1::LinkHealth ToProto(const LinkHealth& h) {
+  v1::LinkHealth p;
+  p.set_requests(h.requests);
+  p.set_replies(h.replies);
+  p.set_missed(h.missed);
+  if (h.last_round_trip_ms) p.mutable_last_round_trip_ms()->set_value(*h.last_round_trip_ms);
+  return p;
+}
+
+v1::DriveStatus StatusToProto(const Drive& d, const DriveStatus& s) {
+  v1::DriveStatus p = ToProto(d.config().name, s);
+  *p.mutable_link() = ToProto(d.link_health());
+  return p;
+}
+
 v1::Axis ToProto(const AxisConfig& a) {
   v1::Axis p;
   p.set_kind(a.kind == AxisKind::kRotary ? v1::ROTARY : v1::LINEAR);

@@ -14,6 +14,9 @@ v1::DriveState ToProto(DriveState s);
 v1::CommandState ToProto(CommandState s);
 v1::CommandHandle ToProto(const std::string& drive, const CommandInfo& c);
 v1::DriveStatus ToProto(const std::string& drive, const DriveStatus& s);
+v1::LinkHealth ToProto(const LinkHealth& h);
+// The status snapshot with the drive's current link health (issue 8).
+v1::DriveStatus StatusToProto(const Drive& d, const DriveStatus& s);
 v1::Axis ToProto(const AxisConfig& a);
 
 }  // namespace drivegw::server

@@ -23,10 +23,12 @@ namespace {
 constexpr double kDefaultWatchRateHz = 20;
 constexpr double kMaxWatchRateHz = 1000;
 
-// Content of a snapshot without the fields that change on every publish.
+// Content of a snapshot without the fields that change on every publish (the link counters
+// change every bus cycle: a snapshot is not new because of them).
 std::string ContentKey(v1::DriveStatus s) {
   s.clear_time();
   s.clear_sequence();
+  s.clear_link();
   return s.SerializeAsString();
 }
 
@@ -108,7 +110,7 @@ absl::StatusOr<v1::Drive> DriveServiceCore::GetDrive(const v1::GetDriveRequest& 
   out.set_family(d.config().family);
   out.set_endpoint(d.endpoint());
   *out.mutable_axis() = ToProto(d.config().axis);
-  *out.mutable_status() = ToProto(d.config().name, d.GetStatus());
+  *out.mutable_status() = StatusToProto(d, d.GetStatus());
   return out;
 }
 
@@ -382,7 +384,7 @@ absl::Status DriveServiceCore::WatchDrives(const v1::WatchDrivesRequest& r, cons
       DriveStatus s = watched[i]->GetStatus();
       if (sent_any[i] && s.sequence == last_seq[i]) continue;
       last_seq[i] = s.sequence;
-      v1::DriveStatus p = ToProto(watched[i]->config().name, s);
+      v1::DriveStatus p = StatusToProto(*watched[i], s);
       std::string key = ContentKey(p);
       if (sent_any[i] && key == last[i]) continue;
       last[i] = std::move(key);

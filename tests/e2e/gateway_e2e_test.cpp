@@ -240,6 +240,8 @@ TEST_F(GatewayE2eTest, Rest_EnableAndMove_ReachesTargetAndIsAudited) {
   auto got = HttpRequest(http(), "GET", "/v1/drives/x2");
   ASSERT_EQ(got.status, 200);
   EXPECT_NE(got.body.find("\"position_mm\""), std::string::npos) << got.body;
+  // Issue 8: the status carries the drive's link health (the move put requests on the wire).
+  EXPECT_NE(got.body.find("\"link\":{\"requests\":\""), std::string::npos) << got.body;
 
   // Every mutating call is in the audit log with the REST client's address.
   auto db = storage::Db::Open((std::filesystem::path(data_dir_) / "drivegw.db").string());
