@@ -40,6 +40,10 @@ export const tests = [
         await text(tid(page, `drive-card-${d}`).locator('[data-testid=state]'), /DISABLED|READY/, `card ${d} state`);
         await text(tid(page, `drive-card-${d}`).locator('[data-testid=position]'), /^-?\d+\.\d\d$/, `card ${d} position`);
       }
+      // Link health on the card (issue 8): x1 (LinUDP) has a round trip and a missed count.
+      const x1link = tid(page, 'drive-card-x1').locator('[data-testid=link]');
+      await text(x1link, /rt \d+\.\d ms/, 'card x1 link round trip');
+      await text(x1link, /missed \d+/, 'card x1 link missed');
       // A change made elsewhere (REST) reaches the card through the live stream.
       const r = await gw.rest('POST', '/v1/drives/x2:enable', {});
       expect(r.status === 200, `enable x2 over REST: ${r.status} ${JSON.stringify(r.body)}`);

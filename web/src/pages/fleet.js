@@ -23,6 +23,7 @@ export async function render(root) {
         flags: h('div', { class: 'flags' }),
         warnings: h('div', { class: 'warnings' }),
         fault: h('div', { 'data-testid': 'fault', class: 'fault' }),
+        link: h('div', { 'data-testid': 'link', class: 'flags' }),
       },
     };
     const e = c.el;
@@ -36,6 +37,7 @@ export async function render(root) {
         e.flags,
         e.warnings,
         e.fault,
+        e.link,
       ),
     );
     cards.set(name, c);
@@ -59,4 +61,12 @@ function update(c, s) {
   e.flags.textContent = `${s.homed ? 'homed' : 'not homed'} · ${s.in_target ? 'in target' : 'not in target'}`;
   e.warnings.textContent = (s.warnings || []).join(', ');
   e.fault.textContent = s.fault ? `${s.fault.code} ${s.fault.text}` : '';
+  // Link health (issue 8): refreshed with each snapshot the stream sends (only changed ones).
+  if (s.link) e.link.textContent = linkText(s.link);
+}
+
+// "rt 1.2 ms · missed 0"; uint64 arrive as JSON strings, the round trip is absent when unknown.
+function linkText(l) {
+  const rt = l.last_round_trip_ms;
+  return `rt ${rt == null ? '–' : `${Number(rt).toFixed(1)} ms`} · missed ${l.missed ?? 0}`;
 }
