@@ -27,6 +27,7 @@
 #include "storage/db.h"
 #include "storage/token_repo.h"
 #include "tests/server/rest/http_client.h"
+#include "tests/support/demo_gateway.h"
 
 namespace drivegw::server {
 namespace {
@@ -53,18 +54,8 @@ class AuthGatewayTest : public ::testing::Test {
     char tmpl[] = "/tmp/drivegw-auth-XXXXXX";
     ASSERT_NE(::mkdtemp(tmpl), nullptr);
     data_dir_ = tmpl;
-    std::random_device rd;
-    const auto can_port = static_cast<uint16_t>(20000 + rd() % 20000);
-    GatewayOptions o;
-    o.config.listen.grpc = "127.0.0.1:0";
-    o.config.listen.http = "127.0.0.1:0";
-    o.config.data_dir = data_dir_;
-    o.config.demo = true;
+    GatewayOptions o = test_support::DemoGatewayOptions(data_dir_);
     o.config.auth.enabled = true;
-    o.demo_first_port = 0;
-    o.demo_master_port = 0;
-    o.demo_can_port = can_port;  // a CAN bus of this test's own (parallel ctest)
-    o.demo_canopen_port = static_cast<uint16_t>(can_port + 1);
     auto gw = Gateway::Start(o);
     ASSERT_TRUE(gw.ok()) << gw.status();
     gw_ = std::move(*gw);

@@ -20,6 +20,7 @@
 #include "server/gateway.h"
 #include "tests/e2e/http_client.h"
 #include "tests/server/ops/exposition_parser.h"
+#include "tests/support/demo_gateway.h"
 
 namespace drivegw::server {
 namespace {
@@ -75,17 +76,7 @@ class OpsGatewayTest : public ::testing::Test {
     ASSERT_NE(::mkdtemp(tmpl), nullptr);
     data_dir_ = tmpl;
     capture_ = std::make_unique<StderrCapture>(data_dir_ + "/stderr.log");
-    std::random_device rd;
-    const auto can_port = static_cast<uint16_t>(20000 + rd() % 20000);
-    GatewayOptions o;
-    o.config.listen.grpc = "127.0.0.1:0";
-    o.config.listen.http = "127.0.0.1:0";
-    o.config.data_dir = data_dir_;
-    o.config.demo = true;
-    o.demo_first_port = 0;
-    o.demo_master_port = 0;
-    o.demo_can_port = can_port;  // buses of this test's own (parallel ctest)
-    o.demo_canopen_port = static_cast<uint16_t>(can_port + 1);
+    GatewayOptions o = test_support::DemoGatewayOptions(data_dir_);
     auto gw = Gateway::Start(o);
     ASSERT_TRUE(gw.ok()) << gw.status();
     gw_ = std::move(*gw);

@@ -15,6 +15,7 @@
 #include "server/rest/server.h"
 #include "tests/server/tls/test_pki.h"
 #include "tests/server/web/ws_client.h"
+#include "tests/support/demo_gateway.h"
 
 namespace drivegw::server {
 namespace {
@@ -30,17 +31,7 @@ TEST(WebTls, StatusStreamOverWss) {
   char tmpl[] = "/tmp/drivegw-web-tls-XXXXXX";
   ASSERT_NE(::mkdtemp(tmpl), nullptr);
   const std::string data_dir = tmpl;
-  std::random_device rd;
-  const auto can_port = static_cast<uint16_t>(20000 + rd() % 20000);
-  GatewayOptions o;
-  o.config.listen.grpc = "127.0.0.1:0";
-  o.config.listen.http = "127.0.0.1:0";
-  o.config.data_dir = data_dir;
-  o.config.demo = true;
-  o.demo_first_port = 0;
-  o.demo_master_port = 0;
-  o.demo_can_port = can_port;  // buses of this test's own (parallel ctest)
-  o.demo_canopen_port = static_cast<uint16_t>(can_port + 1);
+  GatewayOptions o = test_support::DemoGatewayOptions(data_dir);
   auto gw = Gateway::Start(o);
   ASSERT_TRUE(gw.ok()) << gw.status();
 
