@@ -1,4 +1,6 @@
 // drivegw: the gateway process. `drivegw [--config FILE]`; exit code 2 for a bad configuration.
+// The file may also come from DRIVEGW_CONFIG, and DRIVEGW_* variables override single keys
+// (docs/config.md "Environment", decision 024).
 #include <chrono>
 #include <condition_variable>
 #include <csignal>
@@ -10,8 +12,10 @@
 #include <thread>
 
 #include "adapters/core/log.h"
+#include "server/cli/health_cli.h"
 #include "server/cli/token_cli.h"
 #include "server/config/config.h"
+#include "server/config/env_overrides.h"
 #include "server/gateway.h"
 
 namespace {
@@ -20,6 +24,9 @@ void Usage() {
   std::fprintf(stderr,
                "usage: drivegw [--config FILE]\n"
                "       drivegw token create|list|revoke ...   (API tokens; `drivegw token` for help)\n"
+               "       drivegw health [--config FILE] [--path /healthz] [--timeout-ms 2000]\n"
+               "  Without --config, DRIVEGW_CONFIG names the file; DRIVEGW_LISTEN_HTTP and the\n"
+               "  other DRIVEGW_* variables of docs/config.md \"Environment\" override its keys.\n"
                "  Without --config (or with a config that has no `drives:`), drivegw starts its\n"
                "  embedded demo: simulated LinMot drives on loopback UDP, a LinMot DeviceNet\n"
                "  drive on the user-space CAN bus, two axes of a Trinamic SIXpack on a pty and\n"
@@ -71,10 +78,14 @@ int main(int argc, char** argv) {
   if (drivegw::cli::IsTokenCommand(argc, argv)) {
     return drivegw::cli::RunTokenCommand(argc - 2, argv + 2, stdout, stderr);
   }
-  std::string config_path;
+  const drivegw::config::EnvLookup env = drivegw::config::ProcessEnvironment();
+  if (drivegw::cli::IsHealthCommand(argc, argv)) {
+    return drivegw::cli::RunHealthCommand(argc - 2, argv + 2, env, stdout, stderr);
+  }
+  std::string config_flag;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--config") == 0 && i + 1 < argc) {
-      config_path = argv[++i];
+      config_flag = argv[++i];
     } else if (std::strcmp(argv[i], "--help") == 0 || std::strcmp(argv[i], "-h") == 0) {
       Usage();
       return 0;
@@ -85,8 +96,15 @@ int main(int argc, char** argv) {
     }
   }
 
+  const std::string config_path = drivegw::config::ResolveConfigPath(config_flag, env);
+  if (config_flag.empty() && !config_path.empty()) {
+    drivegw::log::Info("config_file",
+                       drivegw::log::Fields().Add("path", config_path).Add("from", "DRIVEGW_CONFIG"));
+  }
+  const auto overrides = drivegw::config::OverridesFromEnvironment(env);
+  drivegw::config::LogOverrides(overrides);
   absl::StatusOr<drivegw::config::GatewayConfig> cfg =
-      config_path.empty() ? drivegw::config::ParseConfig("") : drivegw::config::LoadConfigFile(config_path);
+      drivegw::config::LoadGatewayConfig(config_path, overrides);
   if (!cfg.ok()) {
     std::fprintf(stderr, "drivegw: config %s: %s\n", config_path.empty() ? "(default)" : config_path.c_str(),
                  std::string(cfg.status().message()).c_str());

@@ -12,8 +12,18 @@
 namespace drivegw::log {
 namespace {
 
+// DRIVEGW_LOG_LEVEL (docs/config.md "Environment", decision 024) wins; DGW_LOG_LEVEL stays as
+// its older alias. An empty value counts as unset, as for every DRIVEGW_* variable.
+const char* LevelVariable() {
+  for (const char* name : {"DRIVEGW_LOG_LEVEL", "DGW_LOG_LEVEL"}) {
+    const char* v = std::getenv(name);
+    if (v != nullptr && *v != '\0') return v;
+  }
+  return nullptr;
+}
+
 Level LevelFromEnv() {
-  const char* v = std::getenv("DGW_LOG_LEVEL");
+  const char* v = LevelVariable();
   if (v == nullptr) return Level::kInfo;
   if (std::strcmp(v, "debug") == 0) return Level::kDebug;
   if (std::strcmp(v, "warn") == 0) return Level::kWarn;

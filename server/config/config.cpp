@@ -15,9 +15,11 @@
 #include <sstream>
 #include <system_error>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "adapters/stober/factory.h"
 #include "adapters/trinamic/factory.h"
 #include "server/config/audit_config.h"
@@ -415,10 +417,52 @@ absl::StatusOr<GatewayConfig> ParseDocument(const YAML::Node& doc,
   return cfg;
 }
 
+// Sets `o.key` in `doc` to the override's text as a plain scalar, creating the mappings on the
+// way (an empty file, `listen:` with nothing below). The text is not parsed as YAML: "[::]:8080"
+// would become a flow sequence and "a#b" lose its tail, while every reader takes the scalar's
+// text anyway, so "true" and "30" keep their types (decision 024). A parent that is not a
+// mapping is left alone: the section reports it with its file position.
+void ApplyOverride(YAML::Node& doc, const ConfigOverride& o) {
+  if (doc.IsNull()) doc.reset(YAML::Node(YAML::NodeType::Map));
+  if (!doc.IsMap()) return;
+  const std::vector<std::string> parts = absl::StrSplit(o.key, '.');
+  YAML::Node parent = doc;
+  for (size_t i = 0; i + 1 < parts.size(); ++i) {
+    YAML::Node child = parent[parts[i]];
+    if (!child.IsDefined() || child.IsNull()) {
+      parent[parts[i]] = YAML::Node(YAML::NodeType::Map);
+      child.reset(parent[parts[i]]);
+    }
+    if (!child.IsMap()) return;
+    parent.reset(child);
+  }
+  // Assigning replaces the value node, mark included: an overridden key has no file position.
+  parent[parts.back()] = YAML::Node(o.value);
+}
+
+// Every line of Errors starts with the key path ("listen.http: ..."), and the lines are joined
+// with "; " (section.cpp). A line about an overridden key gets the variable after its path, the
+// only hint where a value without a file position came from.
+absl::Status NameOverrides(const absl::Status& status, std::span<const ConfigOverride> overrides) {
+  if (status.ok() || overrides.empty()) return status;
+  std::vector<std::string> lines = absl::StrSplit(status.message(), "; ");
+  for (std::string& line : lines) {
+    for (const ConfigOverride& o : overrides) {
+      const std::string prefix = absl::StrCat(o.key, ": ");
+      if (absl::StartsWith(line, prefix)) {
+        line = absl::StrCat(o.key, " (from ", o.variable, "): ", line.substr(prefix.size()));
+        break;
+      }
+    }
+  }
+  return absl::Status(status.code(), absl::StrJoin(lines, "; "));
+}
+
 }  // namespace
 
 absl::StatusOr<GatewayConfig> ParseConfig(std::string_view yaml_text,
-                                          std::span<const std::string_view> families) {
+                                          std::span<const std::string_view> families,
+                                          std::span<const ConfigOverride> overrides) {
   if (yaml_text.size() > kMaxConfigBytes) {
     return absl::InvalidArgumentError(
         absl::StrCat("config: ", yaml_text.size(), " bytes exceeds ", kMaxConfigBytes));
@@ -426,8 +470,11 @@ absl::StatusOr<GatewayConfig> ParseConfig(std::string_view yaml_text,
   try {
     const std::string text(yaml_text);
     if (absl::Status s = CheckSingleDocument(text); !s.ok()) return s;
-    absl::StatusOr<GatewayConfig> cfg = ParseDocument(YAML::Load(text), families);
-    if (cfg.ok()) cfg->source_yaml = std::string(yaml_text);
+    YAML::Node doc = YAML::Load(text);
+    for (const ConfigOverride& o : overrides) ApplyOverride(doc, o);
+    absl::StatusOr<GatewayConfig> cfg = ParseDocument(doc, families);
+    if (!cfg.ok()) return NameOverrides(cfg.status(), overrides);
+    cfg->source_yaml = std::string(yaml_text);
     return cfg;
   } catch (const YAML::Exception& e) {
     // e.mark is 0-based; the text editors people use count from 1.
@@ -442,7 +489,8 @@ absl::StatusOr<GatewayConfig> ParseConfig(std::string_view yaml_text,
 }
 
 absl::StatusOr<GatewayConfig> LoadConfigFile(const std::string& path,
-                                             std::span<const std::string_view> families) {
+                                             std::span<const std::string_view> families,
+                                             std::span<const ConfigOverride> overrides) {
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
   if (status.type() == std::filesystem::file_type::not_found) {
@@ -469,7 +517,7 @@ absl::StatusOr<GatewayConfig> LoadConfigFile(const std::string& path,
   if (in.bad()) {
     return absl::UnavailableError(absl::StrCat("config: read failed (path=", path, ")"));
   }
-  absl::StatusOr<GatewayConfig> cfg = ParseConfig(text.str(), families);
+  absl::StatusOr<GatewayConfig> cfg = ParseConfig(text.str(), families, overrides);
   if (!cfg.ok()) {
     return absl::Status(cfg.status().code(), absl::StrCat(path, ": ", cfg.status().message()));
   }

@@ -30,6 +30,15 @@ struct ListenConfig {
   std::string http = "0.0.0.0:8080";
 };
 
+// One value that replaces a key of the file (or its default) before validation, e.g. from the
+// environment (env_overrides.h): {"listen.http", "0.0.0.0:8080", "DRIVEGW_LISTEN_HTTP"}. The
+// value is the text of a plain YAML scalar, so every key's own reader and rules apply to it.
+struct ConfigOverride {
+  std::string key;       // dotted path of a mapping key: "data_dir", "listen.http"
+  std::string value;     // scalar text, taken verbatim
+  std::string variable;  // where it came from; errors name it: "listen.http (from VAR): ..."
+};
+
 struct GatewayConfig {
   ListenConfig listen;
   std::string data_dir = "./data";
@@ -40,18 +49,22 @@ struct GatewayConfig {
   // Graceful shutdown bound on SIGTERM, seconds 1..300 (decision 022).
   int shutdown_timeout_s = 10;
   bool demo = true;                 // true when the config has no `drives:` key (or no file)
-  std::string source_yaml;          // the text that was parsed, verbatim
+  std::string source_yaml;          // the text that was parsed, verbatim (without overrides)
 };
 
 // Parses and validates. Every problem is an InvalidArgument whose message names the key path
 // and the limit, e.g. "drives[2].linudp.port: 70000 exceeds 65535 (line 9, column 13)";
 // several problems are joined with "; ". YAML syntax errors carry line/column. Never throws.
+// `overrides` replace (or add) their keys in the parsed tree before validation; a problem with
+// an overridden key names the variable instead of a position.
 absl::StatusOr<GatewayConfig> ParseConfig(
-    std::string_view yaml_text, std::span<const std::string_view> families = kKnownFamilies);
+    std::string_view yaml_text, std::span<const std::string_view> families = kKnownFamilies,
+    std::span<const ConfigOverride> overrides = {});
 
 // Reads and parses `path`. NotFound naming the path when the file does not exist.
 absl::StatusOr<GatewayConfig> LoadConfigFile(
-    const std::string& path, std::span<const std::string_view> families = kKnownFamilies);
+    const std::string& path, std::span<const std::string_view> families = kKnownFamilies,
+    std::span<const ConfigOverride> overrides = {});
 
 // The two demo LinMot drives "x1" and "x2" (family linmot, LinUDP on 127.0.0.1 ports
 // first_drive_port and first_drive_port + 1) that the server backs with embedded simulators.
