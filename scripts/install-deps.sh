@@ -1,15 +1,25 @@
 #!/usr/bin/env bash
 # Installs what drivegw needs on Debian 12 and is missing; idempotent (apt skips what is there).
+#   scripts/install-deps.sh           everything: build, tests, browser, qemu, Docker (README, CI)
+#   scripts/install-deps.sh --build   only what builds drivegw and drivegw-sim with -DDGW_TESTS=OFF
+#                                     (the build stage of docker/Dockerfile)
 set -euo pipefail
-PKGS=(build-essential cmake ninja-build pkg-config ccache clang
+BUILD_PKGS=(build-essential cmake ninja-build pkg-config ccache
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
-  libboost-dev libboost-system-dev libsqlite3-dev sqlite3 libyaml-cpp-dev nlohmann-json3-dev
-  libgtest-dev libgmock-dev libbenchmark-dev golang-grpc-gateway
-  python3-grpcio curl
-  openssl libssl-dev
+  libboost-dev libboost-system-dev libsqlite3-dev libyaml-cpp-dev nlohmann-json3-dev
+  libssl-dev golang-grpc-gateway)
+TEST_PKGS=(clang sqlite3 libgtest-dev libgmock-dev libbenchmark-dev
+  python3-grpcio curl openssl
   python3-can python3-msgpack
   qemu-system-x86 busybox-static cpio kmod xz-utils
-  chromium)
+  chromium
+  # tests/docker: a private dockerd, compose 1.29 and a locally made debian:bookworm-slim base.
+  docker.io docker-compose debootstrap)
+case "${1:-}" in
+  --build) PKGS=("${BUILD_PKGS[@]}") ;;
+  "") PKGS=("${BUILD_PKGS[@]}" "${TEST_PKGS[@]}") ;;
+  *) echo "usage: $0 [--build]" >&2; exit 2 ;;
+esac
 # The dashboard (web/, scripts/build-web.sh) needs Node.js and npm; a newer one installed
 # outside apt (nvm, NodeSource) is kept, Debian's packages only fill the gap.
 command -v node >/dev/null 2>&1 || PKGS+=(nodejs)
