@@ -40,6 +40,9 @@ struct CanBusConfig {
   std::string interface = "can0";      // kSocketCan: network interface name
   std::string group = "239.74.163.2";  // kUdpMulticast: IPv4 multicast group (python-can default)
   uint16_t port = 43113;               // kUdpMulticast: UDP port (python-can default)
+  // kUdpMulticast: bit rate each node paces its own frames at (bit/s: 125000, 250000, 500000,
+  // 1000000); 0 = unpaced (docs/decisions/805-udp-bus-bit-timing.md).
+  uint32_t bitrate = 0;
   std::string trace_file;              // candump -l log of every frame in and out; empty: off
 };
 

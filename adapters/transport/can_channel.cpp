@@ -7,6 +7,7 @@
 #include <cstdio>
 
 #include "absl/strings/str_cat.h"
+#include "adapters/transport/can_bit_timing.h"
 #include "adapters/transport/candump_trace.h"
 #include "adapters/transport/socketcan_channel.h"
 #include "adapters/transport/udp_multicast_channel.h"
@@ -86,6 +87,7 @@ absl::StatusOr<std::unique_ptr<CanChannel>> OpenCanChannel(const CanBusConfig& c
       options.group = config.group;
       options.port = config.port;
       options.trace = std::move(trace);
+      options.bitrate = config.bitrate;
       auto ch = UdpMulticastChannel::Open(std::move(options));
       if (!ch.ok()) return ch.status();
       return std::unique_ptr<CanChannel>(*std::move(ch));
@@ -96,10 +98,27 @@ absl::StatusOr<std::unique_ptr<CanChannel>> OpenCanChannel(const CanBusConfig& c
 
 absl::StatusOr<CanBusConfig> ParseCanSpec(std::string_view spec) {
   CanBusConfig config;
-  const size_t colon = spec.find(':');
-  const std::string_view kind = spec.substr(0, colon);
+  // "udp...@BITRATE" paces this node's frames (decision 805): udp:G:P@500000, udp@125000. A
+  // SocketCAN interface has its bit rate set by `ip link`, so there '@' stays in the name.
+  std::string_view body = spec;
+  if (spec.substr(0, 3) == "udp") {
+    if (const size_t at = spec.rfind('@'); at != std::string_view::npos) {
+      const std::string_view rate = spec.substr(at + 1);
+      unsigned value = 0;
+      const auto [end, ec] = std::from_chars(rate.data(), rate.data() + rate.size(), value);
+      if (rate.empty() || ec != std::errc() || end != rate.data() + rate.size() ||
+          !IsSupportedCanBitrate(value)) {
+        return SpecError(spec, absl::StrCat("bitrate '", std::string(rate.substr(0, 20)),
+                                            "' is not one of 125000, 250000, 500000, 1000000"));
+      }
+      config.bitrate = value;
+      body = spec.substr(0, at);
+    }
+  }
+  const size_t colon = body.find(':');
+  const std::string_view kind = body.substr(0, colon);
   const std::string_view rest =
-      colon == std::string_view::npos ? std::string_view() : spec.substr(colon + 1);
+      colon == std::string_view::npos ? std::string_view() : body.substr(colon + 1);
   if (kind == "socketcan") {
     config.kind = CanBusConfig::Kind::kSocketCan;
     if (rest.empty()) return SpecError(spec, "socketcan needs an interface: socketcan:IFACE");
@@ -137,12 +156,15 @@ absl::StatusOr<CanBusConfig> ParseCanSpec(std::string_view spec) {
     }
     return config;
   }
-  return SpecError(spec, "expected socketcan:IFACE or udp:GROUP:PORT");
+  return SpecError(spec, "expected socketcan:IFACE or udp:GROUP:PORT[@BITRATE]");
 }
 
 std::string CanSpecString(const CanBusConfig& config) {
   if (config.kind == CanBusConfig::Kind::kSocketCan)
     return absl::StrCat("socketcan:", config.interface);
+  if (config.bitrate != 0) {
+    return absl::StrCat("udp:", config.group, ":", config.port, "@", config.bitrate);
+  }
   return absl::StrCat("udp:", config.group, ":", config.port);
 }
 

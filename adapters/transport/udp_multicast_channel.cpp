@@ -357,10 +357,18 @@ absl::StatusOr<std::unique_ptr<UdpMulticastChannel>> UdpMulticastChannel::Open(O
 
   ch->wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   if (ch->wake_fd_ < 0) return fail("eventfd", errno);
+  if (options.bitrate != 0) {
+    auto pacer = CanTxPacer::Create(options.bitrate);
+    if (!pacer.ok())
+      return absl::Status(pacer.status().code(),
+                          absl::StrCat(where, ": ", pacer.status().message()));
+    ch->pacer_ = *std::move(pacer);
+  }
   log::Info("can_open", log::Fields()
                             .Add("bus", ch->name_)
                             .Add("backend", "udp_multicast")
-                            .Add("sender_port", ch->sender_port_));
+                            .Add("sender_port", ch->sender_port_)
+                            .Add("bitrate", static_cast<int64_t>(options.bitrate)));
   return ch;
 }
 
@@ -372,6 +380,16 @@ UdpMulticastChannel::~UdpMulticastChannel() {
 
 absl::Status UdpMulticastChannel::Send(const CanFrame& frame) {
   if (absl::Status s = ValidateCanFrame(frame); !s.ok()) return s;
+  if (!pacer_) return SendDatagram(frame);
+  // Read the clock before queueing behind other senders: a frame queued while the previous
+  // one is on the wire starts at its end (decision 805).
+  const auto queued = SteadyTime::now();
+  std::lock_guard lock(pace_mu_);
+  pacer_->WaitEndOfFrame(frame, queued);
+  return SendDatagram(frame);
+}
+
+absl::Status UdpMulticastChannel::SendDatagram(const CanFrame& frame) {
   const double now_s =
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   const std::vector<uint8_t> bytes = EncodePythonCanMessage(frame, now_s);

@@ -14,6 +14,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "adapters/transport/can_bit_timing.h"
 #include "adapters/transport/can_channel.h"
 #include "adapters/transport/can_frame.h"
 #include "adapters/transport/candump_trace.h"
@@ -38,6 +39,9 @@ class UdpMulticastChannel final : public CanChannel {
     std::string group = "239.74.163.2";   // python-can UdpMulticastBus.DEFAULT_GROUP_IPv4
     uint16_t port = 43113;                // python-can's default port
     std::shared_ptr<CandumpTrace> trace;  // null: no trace
+    // Bit rate this node paces its own frames at (kCanBitrates); 0 = unpaced
+    // (docs/decisions/805-udp-bus-bit-timing.md).
+    uint32_t bitrate = 0;
   };
 
   // Joins the group (TTL 1, loop on) and opens a sender socket. InvalidArgument for a group
@@ -50,7 +54,9 @@ class UdpMulticastChannel final : public CanChannel {
   UdpMulticastChannel& operator=(const UdpMulticastChannel&) = delete;
 
   // Waits up to 100 ms for room when the socket's send buffer is full (a burst), then
-  // Unavailable; the wait never spins (poll for POLLOUT).
+  // Unavailable; the wait never spins (poll for POLLOUT). With a bit rate, first waits for the
+  // frame's turn and its bit time: the datagram leaves when the frame would have ended on the
+  // wire, so Send returns after it (senders of one channel queue in call order).
   absl::Status Send(const CanFrame& frame) override;
   absl::StatusOr<std::optional<CanFrame>> Receive(std::chrono::nanoseconds timeout) override;
   void Wake() override;
@@ -62,10 +68,12 @@ class UdpMulticastChannel final : public CanChannel {
   // The local UDP port frames leave from; datagrams from it are this channel's own (not
   // returned by Receive, as a CAN controller does not receive its own frames).
   uint16_t sender_port() const { return sender_port_; }
+  uint32_t bitrate() const { return pacer_ ? pacer_->bitrate() : 0; }
 
  private:
   UdpMulticastChannel() = default;
   bool Accepts(const CanFrame& frame) const;
+  absl::Status SendDatagram(const CanFrame& frame);
 
   std::string name_;
   int rx_fd_ = -1;            // bound to GROUP:PORT, member of GROUP
@@ -75,6 +83,9 @@ class UdpMulticastChannel final : public CanChannel {
   uint16_t sender_port_ = 0;
   std::shared_ptr<CandumpTrace> trace_;
   std::atomic<CanBusState> state_{CanBusState::kActive};
+
+  std::mutex pace_mu_;                 // the transmit queue of a paced channel
+  std::unique_ptr<CanTxPacer> pacer_;  // null: unpaced
 
   mutable std::mutex filters_mu_;
   std::vector<CanFilter> filters_;  // empty: accept all

@@ -152,7 +152,7 @@ TEST(ParseCanSpec, Errors_NameTheSpecAndWhat) {
             "--can 'socketcan:averyveryverylongname': interface name exceeds 15 characters "
             "(IFNAMSIZ)");
   EXPECT_EQ(ParseCanSpec("can0").status().message(),
-            "--can 'can0': expected socketcan:IFACE or udp:GROUP:PORT");
+            "--can 'can0': expected socketcan:IFACE or udp:GROUP:PORT[@BITRATE]");
   EXPECT_EQ(ParseCanSpec("").status().code(), absl::StatusCode::kInvalidArgument);
 }
 
