@@ -21,17 +21,18 @@
 namespace {
 
 void Usage() {
-  std::fprintf(stderr,
-               "usage: drivegw [--config FILE]\n"
-               "       drivegw token create|list|revoke ...   (API tokens; `drivegw token` for help)\n"
-               "       drivegw health [--config FILE] [--path /healthz] [--timeout-ms 2000]\n"
-               "  Without --config, DRIVEGW_CONFIG names the file; DRIVEGW_LISTEN_HTTP and the\n"
-               "  other DRIVEGW_* variables of docs/config.md \"Environment\" override its keys.\n"
-               "  Without --config (or with a config that has no `drives:`), drivegw starts its\n"
-               "  embedded demo: simulated LinMot drives on loopback UDP, a LinMot DeviceNet\n"
-               "  drive on the user-space CAN bus, two axes of a Trinamic SIXpack on a pty and\n"
-               "  a STOBER axis (CANopen node 3) on a second user-space CAN bus.\n"
-               "  See docs/config.md.\n");
+  std::fprintf(
+      stderr,
+      "usage: drivegw [--config FILE]\n"
+      "       drivegw token create|list|revoke ...   (API tokens; `drivegw token` for help)\n"
+      "       drivegw health [--config FILE] [--path /healthz] [--timeout-ms 2000]\n"
+      "  Without --config, DRIVEGW_CONFIG names the file; DRIVEGW_LISTEN_HTTP and the\n"
+      "  other DRIVEGW_* variables of docs/config.md \"Environment\" override its keys.\n"
+      "  Without --config (or with a config that has no `drives:`), drivegw starts its\n"
+      "  embedded demo: simulated LinMot drives on loopback UDP, a LinMot DeviceNet\n"
+      "  drive on the user-space CAN bus, two axes of a Trinamic SIXpack on a pty and\n"
+      "  a STOBER axis (CANopen node 3) on a second user-space CAN bus.\n"
+      "  See docs/config.md.\n");
 }
 
 // Decision 022: the gateway's graceful shutdown within `bound`; a watchdog ends the process
@@ -98,8 +99,9 @@ int main(int argc, char** argv) {
 
   const std::string config_path = drivegw::config::ResolveConfigPath(config_flag, env);
   if (config_flag.empty() && !config_path.empty()) {
-    drivegw::log::Info("config_file",
-                       drivegw::log::Fields().Add("path", config_path).Add("from", "DRIVEGW_CONFIG"));
+    drivegw::log::Info(
+        "config_file",
+        drivegw::log::Fields().Add("path", config_path).Add("from", "DRIVEGW_CONFIG"));
   }
   const auto overrides = drivegw::config::OverridesFromEnvironment(env);
   drivegw::config::LogOverrides(overrides);

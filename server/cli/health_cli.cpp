@@ -4,6 +4,7 @@
 // "HEALTHCHECK": "2: reserved - do not use this exit code").
 #include "server/cli/health_cli.h"
 
+#include <algorithm>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/ssl/context.hpp>
@@ -11,7 +12,6 @@
 #include <boost/beast/core/tcp_stream.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/ssl/ssl_stream.hpp>
-#include <algorithm>
 #include <cstring>
 #include <type_traits>
 
@@ -55,8 +55,8 @@ std::string Parse(int argc, const char* const* args, Args& a) {
     } else if (arg == "--path" && has_value) {
       a.path = args[++i];
       // The request target goes into the request line verbatim: no spaces or control bytes.
-      const bool printable = std::all_of(a.path.begin(), a.path.end(),
-                                         [](char c) { return c > 0x20 && c < 0x7f; });
+      const bool printable =
+          std::all_of(a.path.begin(), a.path.end(), [](char c) { return c > 0x20 && c < 0x7f; });
       if (a.path.empty() || a.path.front() != '/' || !printable) {
         return absl::StrCat("--path '", a.path, "' must start with / and hold no spaces");
       }
@@ -156,9 +156,9 @@ absl::StatusOr<ProbeTarget> ProbeTargetFor(std::string_view listen_http) {
   const size_t colon = listen_http.rfind(':');
   uint32_t port = 0;
   if (colon == std::string_view::npos ||
-      !absl::SimpleAtoi(absl::string_view(listen_http.data() + colon + 1,
-                                          listen_http.size() - colon - 1),
-                        &port) ||
+      !absl::SimpleAtoi(
+          absl::string_view(listen_http.data() + colon + 1, listen_http.size() - colon - 1),
+          &port) ||
       port > 65535) {
     return absl::InvalidArgumentError(
         absl::StrCat("listen.http: '", std::string(listen_http), "' is not a host:port"));

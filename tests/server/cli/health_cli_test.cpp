@@ -62,7 +62,7 @@ TEST(ProbeTargetFor_PortZero, FailedPrecondition) {
 
 using Env = std::map<std::string, std::string>;
 
-struct Run {
+struct HealthRun {
   int exit_code = -1;
   std::string out;
   std::string err;
@@ -77,7 +77,7 @@ std::string ReadAll(std::FILE* f) {
   return text;
 }
 
-Run RunHealth(std::vector<std::string> args, const Env& env) {
+HealthRun RunHealth(std::vector<std::string> args, const Env& env) {
   std::vector<const char*> argv;
   for (const std::string& a : args) argv.push_back(a.c_str());
   const config::EnvLookup lookup = [&env](const char* name) -> const char* {
@@ -86,9 +86,9 @@ Run RunHealth(std::vector<std::string> args, const Env& env) {
   };
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> out(std::tmpfile(), &std::fclose);
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> err(std::tmpfile(), &std::fclose);
-  Run r;
-  r.exit_code = RunHealthCommand(static_cast<int>(argv.size()), argv.data(), lookup, out.get(),
-                                 err.get());
+  HealthRun r;
+  r.exit_code =
+      RunHealthCommand(static_cast<int>(argv.size()), argv.data(), lookup, out.get(), err.get());
   r.out = ReadAll(out.get());
   r.err = ReadAll(err.get());
   return r;
@@ -125,7 +125,7 @@ TEST(RunHealthCommand_ClosedPort, ExitOneConnectRefused) {
   // Bound but not listening: the kernel answers a SYN with RST, and the port stays ours.
   LocalSocket bound(/*listening=*/false);
   ASSERT_NE(bound.port(), 0);
-  const Run r = RunHealth({}, {{"DRIVEGW_LISTEN_HTTP", Loopback(bound.port())}});
+  const HealthRun r = RunHealth({}, {{"DRIVEGW_LISTEN_HTTP", Loopback(bound.port())}});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("connect to " + Loopback(bound.port()) + ": Connection refused"));
   EXPECT_EQ(r.out, "");
@@ -135,14 +135,14 @@ TEST(RunHealthCommand_SilentPort, ExitOneNoAnswerWithinTimeout) {
   // Listening but never accepting: the kernel completes the connection, nobody answers.
   LocalSocket silent(/*listening=*/true);
   ASSERT_NE(silent.port(), 0);
-  const Run r =
+  const HealthRun r =
       RunHealth({"--timeout-ms", "200"}, {{"DRIVEGW_LISTEN_HTTP", Loopback(silent.port())}});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("no answer within 200 ms"));
 }
 
 TEST(RunHealthCommand_Usage, ErrorsExitOneNeverTwo) {
-  Run r = RunHealth({"--bogus"}, {});
+  HealthRun r = RunHealth({"--bogus"}, {});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("unknown argument '--bogus'"));
   r = RunHealth({"--timeout-ms", "0"}, {});
@@ -156,10 +156,10 @@ TEST(RunHealthCommand_Usage, ErrorsExitOneNeverTwo) {
 }
 
 TEST(RunHealthCommand_BadConfig, ExitOneNamingVariable) {
-  const Run r = RunHealth({}, {{"DRIVEGW_LISTEN_HTTP", "abc"}});
+  const HealthRun r = RunHealth({}, {{"DRIVEGW_LISTEN_HTTP", "abc"}});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("listen.http (from DRIVEGW_LISTEN_HTTP): 'abc' is not a host:port"));
-  const Run missing = RunHealth({}, {{"DRIVEGW_CONFIG", "/nonexistent/drivegw.yaml"}});
+  const HealthRun missing = RunHealth({}, {{"DRIVEGW_CONFIG", "/nonexistent/drivegw.yaml"}});
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_THAT(missing.err, HasSubstr("file not found (path=/nonexistent/drivegw.yaml)"));
 }
@@ -198,7 +198,7 @@ class HealthDemoGatewayTest : public ::testing::Test {
 };
 
 TEST_F(HealthDemoGatewayTest, HealthzExitZero) {
-  const Run r = RunHealth({}, {{"DRIVEGW_LISTEN_HTTP", Loopback(gw_->http_port())}});
+  const HealthRun r = RunHealth({}, {{"DRIVEGW_LISTEN_HTTP", Loopback(gw_->http_port())}});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out, "drivegw health: http://" + Loopback(gw_->http_port()) + "/healthz: HTTP 200\n");
   EXPECT_EQ(r.err, "");
@@ -208,15 +208,15 @@ TEST_F(HealthDemoGatewayTest, ConfigFileFromFlagWinsOverDrivegwConfig) {
   const std::string file = dir_.path() + "/gw.yaml";
   testing::WriteFile(file, "listen: {http: \"" + Loopback(gw_->http_port()) + "\"}\n");
   // DRIVEGW_CONFIG names a missing file: only --config may be read.
-  Run r = RunHealth({"--config", file}, {{"DRIVEGW_CONFIG", dir_.path() + "/missing.yaml"}});
+  HealthRun r = RunHealth({"--config", file}, {{"DRIVEGW_CONFIG", dir_.path() + "/missing.yaml"}});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   r = RunHealth({}, {{"DRIVEGW_CONFIG", file}});
   EXPECT_EQ(r.exit_code, 0) << r.err;
 }
 
 TEST_F(HealthDemoGatewayTest, OtherStatusExitOneNamingCode) {
-  const Run r = RunHealth({"--path", "/no-such-route"},
-                          {{"DRIVEGW_LISTEN_HTTP", Loopback(gw_->http_port())}});
+  const HealthRun r = RunHealth({"--path", "/no-such-route"},
+                                {{"DRIVEGW_LISTEN_HTTP", Loopback(gw_->http_port())}});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("GET http://" + Loopback(gw_->http_port()) +
                                "/no-such-route: HTTP 404 Not Found"));
@@ -266,7 +266,7 @@ testing::TestPki* HealthTlsGatewayTest::pki_ = nullptr;
 TEST_F(HealthTlsGatewayTest, HttpsExitZeroWithoutTrustingTheCa) {
   const std::string file = Start("");
   ASSERT_FALSE(file.empty());
-  const Run r = RunHealth({"--config", file}, {});
+  const HealthRun r = RunHealth({"--config", file}, {});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out,
             "drivegw health: https://" + Loopback(gw_->http_port()) + "/healthz: HTTP 200\n");
@@ -276,7 +276,7 @@ TEST_F(HealthTlsGatewayTest, RequiredClientCertificateExitOneWithHint) {
   const std::string file =
       Start("  client_ca: \"" + pki_->Path("ca.pem") + "\"\n  require_client_cert: true\n");
   ASSERT_FALSE(file.empty());
-  const Run r = RunHealth({"--config", file, "--timeout-ms", "5000"}, {});
+  const HealthRun r = RunHealth({"--config", file, "--timeout-ms", "5000"}, {});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("the probe has no client certificate"));
 }

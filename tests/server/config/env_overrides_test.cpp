@@ -171,8 +171,8 @@ TEST(EnvOverrides_BadValue, LimitErrorsNameVariable) {
 }
 
 TEST(EnvOverrides_BadValue, FileErrorsKeepLineAndColumn) {
-  const std::string msg = ErrorOf("shutdown_timeout_s: 0\ndata_dir: /x\n",
-                                  FakeEnv{{"DRIVEGW_LISTEN_GRPC", "nope"}});
+  const std::string msg =
+      ErrorOf("shutdown_timeout_s: 0\ndata_dir: /x\n", FakeEnv{{"DRIVEGW_LISTEN_GRPC", "nope"}});
   EXPECT_THAT(msg, HasSubstr("listen.grpc (from DRIVEGW_LISTEN_GRPC): 'nope' is not a host:port"));
   EXPECT_THAT(msg, HasSubstr("shutdown_timeout_s: 0 is below 1 (line 1, column 21)"));
   // The overridden value has no position in the file.
@@ -193,9 +193,8 @@ TEST(EnvOverrides_Exposure, WildcardWithAuthOffRefused) {
 }
 
 TEST(EnvOverrides_Exposure, AuthOffFromEnvironmentRefusesWildcardInFile) {
-  const std::string msg =
-      ErrorOf("auth: {enabled: true}\nlisten: {http: 0.0.0.0:8080}\n",
-              FakeEnv{{"DRIVEGW_AUTH_ENABLED", "false"}});
+  const std::string msg = ErrorOf("auth: {enabled: true}\nlisten: {http: 0.0.0.0:8080}\n",
+                                  FakeEnv{{"DRIVEGW_AUTH_ENABLED", "false"}});
   EXPECT_THAT(msg, HasSubstr("listen.http: '0.0.0.0:8080' is not a loopback address"));
   EXPECT_THAT(msg, HasSubstr("(line 2, column 16)"));
 }
@@ -210,8 +209,8 @@ TEST(EnvOverrides_Exposure, WildcardWithInsecureAccepted) {
 }
 
 TEST(EnvOverrides_Exposure, WildcardWithAuthEnabledAccepted) {
-  auto cfg = Parse("", FakeEnv{{"DRIVEGW_LISTEN_HTTP", "0.0.0.0:8080"},
-                               {"DRIVEGW_AUTH_ENABLED", "true"}});
+  auto cfg =
+      Parse("", FakeEnv{{"DRIVEGW_LISTEN_HTTP", "0.0.0.0:8080"}, {"DRIVEGW_AUTH_ENABLED", "true"}});
   ASSERT_TRUE(cfg.ok()) << cfg.status();
   EXPECT_EQ(cfg->listen.http, "0.0.0.0:8080");
   EXPECT_EQ(cfg->listen.grpc, "0.0.0.0:50051");  // default, every interface with auth on
