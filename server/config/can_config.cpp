@@ -7,12 +7,14 @@
 #include <string_view>
 
 #include "absl/strings/str_cat.h"
+#include "adapters/transport/can_bit_timing.h"
 
 namespace drivegw::config::internal {
 namespace {
 
 constexpr int64_t kMaxPort = 65535;
 constexpr size_t kMaxInterfaceLength = 15;  // IFNAMSIZ - 1
+constexpr int64_t kMaxBitrate = 1000000;    // classic CAN's highest bit rate (ISO 11898-2)
 
 // Linux dev_valid_name: 1..15 characters, not "." or "..", no '/', ':' or white space.
 bool IsValidInterfaceName(std::string_view name) {
@@ -32,7 +34,7 @@ bool IsIpv4Multicast(const std::string& text) {
 
 }  // namespace
 
-// can: {socketcan: {interface: can0}} | {udp: {group: G, port: P}}, optional trace: FILE
+// can: {socketcan: {interface: can0}} | {udp: {group: G, port: P, bitrate: B}}, optional trace
 // (docs/config.md "can"; docs/decisions/801-can-channel.md).
 void ParseCan(const Section& parent, CanBusConfig& out) {
   const YAML::Node node = *parent.Get("can");
@@ -70,7 +72,7 @@ void ParseCan(const Section& parent, CanBusConfig& out) {
   } else if (udp) {
     out.kind = CanBusConfig::Kind::kUdpMulticast;
     const YAML::Node sub = *s.Get("udp");
-    const Section u(sub, s.Child("udp"), {"group", "port"}, s.errors());
+    const Section u(sub, s.Child("udp"), {"group", "port", "bitrate"}, s.errors());
     if (sub.IsMap()) {  // "udp:" alone takes python-can's defaults
       if (u.String("group", out.group) && !IsIpv4Multicast(out.group)) {
         u.errors().Add(
@@ -80,6 +82,19 @@ void ParseCan(const Section& parent, CanBusConfig& out) {
       }
       int64_t port = 0;
       if (u.Int("port", 1, kMaxPort, port)) out.port = static_cast<uint16_t>(port);
+      // Optional bit timing of the virtual bus (decision 805): a real bit rate or nothing.
+      int64_t bitrate = 0;
+      if (u.Int("bitrate", 1, kMaxBitrate, bitrate)) {
+        if (transport::IsSupportedCanBitrate(static_cast<uint32_t>(bitrate))) {
+          out.bitrate = static_cast<uint32_t>(bitrate);
+        } else {
+          u.errors().Add(u.Child("bitrate"),
+                         absl::StrCat(bitrate,
+                                      " is not one of 125000, 250000, 500000, 1000000 "
+                                      "(bit/s; omit the key for an unpaced bus)"),
+                         *u.Get("bitrate"));
+        }
+      }
     }
   }
   if (s.String("trace", out.trace_file) && out.trace_file.empty()) {

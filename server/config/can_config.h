@@ -10,8 +10,8 @@
 
 namespace drivegw::config::internal {
 
-// Reads `can` of `parent` (which must have it): {socketcan: {interface}} | {udp: {group, port}},
-// optional trace. Errors are named `<parent>.can.<key>`.
+// Reads `can` of `parent` (which must have it): {socketcan: {interface}} |
+// {udp: {group, port, bitrate}}, optional trace. Errors are named `<parent>.can.<key>`.
 void ParseCan(const Section& parent, CanBusConfig& out);
 
 // "socketcan:can0" / "udp:239.74.163.2:43113": which drives share a bus.
