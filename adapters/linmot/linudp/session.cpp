@@ -23,6 +23,8 @@ void Add(ExchangeCounters& into, const ExchangeCounters& c) {
   into.malformed += c.malformed;
   into.late += c.late;
   into.header_mismatch += c.header_mismatch;
+  into.cycles += c.cycles;
+  into.late_cycles += c.late_cycles;
 }
 
 }  // namespace
@@ -106,6 +108,7 @@ absl::StatusOr<PeerId> Session::Register(const PeerOptions& options, SessionPeer
     p.options = options;
     p.peer = peer;
     p.next_send = clock_.Now();
+    p.period_start = p.next_send;
     peers_.emplace(id, std::move(p));
     by_remote_.emplace(options.remote, id);
   }
@@ -175,9 +178,20 @@ void Session::SetLinkLocked(Peer& p, LinkState to) {
   p.peer->OnLinkChange(to);
 }
 
+void Session::RollPeriodsLocked(Peer& p, TimePoint now) {
+  const Duration cycle = p.options.cycle;
+  if (now < p.period_start + cycle) return;
+  const auto ended = static_cast<uint64_t>((now - p.period_start) / cycle);
+  p.counters.cycles += ended;
+  p.counters.late_cycles += ended - (p.period_met ? 1 : 0);
+  p.period_start += static_cast<int64_t>(ended) * cycle;
+  p.period_met = false;
+}
+
 Duration Session::ServiceLocked(TimePoint now) {
   TimePoint wake = now + kIdleWait;
   for (auto& [id, p] : peers_) {
+    RollPeriodsLocked(p, now);
     if (p.outstanding && now >= p.reply_deadline) {
       // the request is given up; a reply arriving now counts as late.
       p.outstanding = false;
@@ -207,6 +221,7 @@ Duration Session::ServiceLocked(TimePoint now) {
       p.asked_response = request.response_definition & kRespDefinedMask;
       p.sent_request = RequestDefinitionOf(request);
       p.reply_deadline = now + p.options.reply_timeout;
+      p.sent_at = now;
       // the next telegram leaves after the reply or time-out, never before the cycle.
       p.next_send = now + p.options.cycle;
     }
@@ -265,6 +280,8 @@ void Session::HandleDatagramLocked(const transport::Datagram& d, TimePoint now) 
   p.outstanding = false;
   p.consecutive_timeouts = 0;
   ++p.counters.replies;
+  RollPeriodsLocked(p, now);
+  if (p.sent_at >= p.period_start) p.period_met = true;
   // Sent at reply_deadline - reply_timeout (ServiceLocked): the telegram's round trip.
   const Duration round_trip = now - (p.reply_deadline - p.options.reply_timeout);
   p.counters.last_round_trip_ms = std::chrono::duration<double, std::milli>(round_trip).count();

@@ -31,6 +31,12 @@ struct ExchangeCounters {
   uint64_t malformed = 0;        // undecodable, short or missing asked-for blocks
   uint64_t late = 0;             // datagrams from the drive while no request was outstanding
   uint64_t header_mismatch = 0;  // bytes 0-3 differ from the request definition (A-02: logged only)
+  // Cycle periods on the peer's fixed grid (registration time + k * cycle) that have ended, and
+  // those of them without a completed exchange: a period is met when a request sent at or after
+  // its start got its valid reply before its end (A-07: one exchange per period). Late periods
+  // are what issue 10 (P2) counts against the cycle time.
+  uint64_t cycles = 0;
+  uint64_t late_cycles = 0;
   std::optional<double> last_round_trip_ms;  // per peer only (not summed)
 };
 
@@ -124,6 +130,9 @@ class Session {
     uint32_t sent_request = 0;    // request definition of the outstanding request
     TimePoint next_send{};
     TimePoint reply_deadline{};
+    TimePoint sent_at{};       // when the outstanding (or last) request left
+    TimePoint period_start{};  // start of the current cycle period (fixed grid)
+    bool period_met = false;   // the current period saw a completed exchange
   };
 
   Session(transport::UdpSocket socket, const Clock& clock);
@@ -132,6 +141,8 @@ class Session {
   Duration ServiceLocked(TimePoint now);
   void HandleDatagramLocked(const transport::Datagram& d, TimePoint now);
   void SetLinkLocked(Peer& p, LinkState to);
+  // Closes the cycle periods of `p` that ended by `now` (ExchangeCounters::cycles/late_cycles).
+  static void RollPeriodsLocked(Peer& p, TimePoint now);
 
   const Clock& clock_;
   transport::UdpSocket socket_;
