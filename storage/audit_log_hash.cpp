@@ -4,6 +4,7 @@
 #include <openssl/evp.h>
 
 #include <array>
+#include <string>
 
 #include "absl/strings/str_cat.h"
 #include "storage/audit_log.h"
@@ -12,7 +13,13 @@ namespace drivegw::storage {
 namespace {
 
 void Field(std::string& out, std::string_view name, std::string_view value) {
-  absl::StrAppend(&out, std::string(name), " ", value.size(), ":", std::string(value), "\n");
+  // Appended piece by piece: no temporaries (callers build one form per audited command).
+  out.append(name);
+  out.push_back(' ');
+  out.append(std::to_string(value.size()));
+  out.push_back(':');
+  out.append(value);
+  out.push_back('\n');
 }
 
 }  // namespace
@@ -48,28 +55,56 @@ std::string Sha256::HexDigest() {
   return out;
 }
 
-std::string CanonicalAuditForm(int64_t seq, const AuditEntry& e, std::string_view prev_hash) {
+namespace {
+
+std::string SeqPart(int64_t seq) {
   std::string out = "drivegw.audit.v1\n";
   Field(out, "seq", absl::StrCat(seq));
-  Field(out, "ts", FormatTimestamp(e.time));
-  Field(out, "principal", e.principal);
-  Field(out, "role", e.role);
-  Field(out, "source_address", e.source_address);
-  Field(out, "drive", e.drive);
-  Field(out, "action", e.action);
-  Field(out, "request_json", e.request_json);
-  Field(out, "result_code", absl::StrCat(e.result_code));
-  Field(out, "result_message", e.result_message);
-  Field(out, "before_json", e.before_json);
-  Field(out, "after_json", e.after_json);
+  return out;
+}
+
+std::string PrevPart(std::string_view prev_hash) {
+  std::string out;
   Field(out, "prev_hash", prev_hash);
   return out;
 }
 
-std::string AuditEntryHash(int64_t seq, const AuditEntry& entry, std::string_view prev_hash) {
+}  // namespace
+
+PreparedAuditEntry PrepareAuditEntry(const AuditEntry& e) {
+  PreparedAuditEntry p;
+  p.ts = FormatTimestamp(e.time);
+  p.body.reserve(256 + e.principal.size() + e.source_address.size() + e.request_json.size() +
+                 e.result_message.size() + e.before_json.size() + e.after_json.size());
+  Field(p.body, "ts", p.ts);
+  Field(p.body, "principal", e.principal);
+  Field(p.body, "role", e.role);
+  Field(p.body, "source_address", e.source_address);
+  Field(p.body, "drive", e.drive);
+  Field(p.body, "action", e.action);
+  Field(p.body, "request_json", e.request_json);
+  Field(p.body, "result_code", absl::StrCat(e.result_code));
+  Field(p.body, "result_message", e.result_message);
+  Field(p.body, "before_json", e.before_json);
+  Field(p.body, "after_json", e.after_json);
+  return p;
+}
+
+std::string CanonicalAuditForm(int64_t seq, const AuditEntry& e, std::string_view prev_hash) {
+  return absl::StrCat(SeqPart(seq), PrepareAuditEntry(e).body, PrevPart(prev_hash));
+}
+
+std::string PreparedAuditHash(int64_t seq, const PreparedAuditEntry& prepared,
+                              std::string_view prev_hash) {
   Sha256 sha;
-  sha.Update(CanonicalAuditForm(seq, entry, prev_hash));
+  sha.Update(SeqPart(seq));
+  sha.Update(prepared.body);
+  sha.Update(PrevPart(prev_hash));
   return sha.HexDigest();
+}
+
+std::string AuditEntryHash(int64_t seq, const AuditEntry& entry, std::string_view prev_hash) {
+  return PreparedAuditHash(seq, PrepareAuditEntry(entry), prev_hash);
 }
 
 }  // namespace drivegw::storage

@@ -24,6 +24,18 @@ std::string CanonicalAuditForm(int64_t seq, const AuditEntry& entry, std::string
 // Lowercase hex SHA-256 of CanonicalAuditForm(seq, entry, prev_hash).
 std::string AuditEntryHash(int64_t seq, const AuditEntry& entry, std::string_view prev_hash);
 
+// An entry's stored timestamp text and the middle of its canonical form (fields ts ..
+// after_json), which do not depend on the chain: each caller builds them on its own thread
+// before it queues for the group-commit writer, which then only adds seq and prev_hash.
+struct PreparedAuditEntry {
+  std::string ts;    // FormatTimestamp(entry.time), bound as the row's ts
+  std::string body;  // "ts <n>:<ts>\n" .. "after_json <n>:<after_json>\n"
+};
+PreparedAuditEntry PrepareAuditEntry(const AuditEntry& entry);
+// Equals AuditEntryHash(seq, entry, prev_hash) for `prepared` = PrepareAuditEntry(entry).
+std::string PreparedAuditHash(int64_t seq, const PreparedAuditEntry& prepared,
+                              std::string_view prev_hash);
+
 // Incremental SHA-256 (EVP), for digests over many rows.
 class Sha256 {
  public:

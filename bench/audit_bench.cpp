@@ -1,0 +1,350 @@
+// Audited commands per second (issue 10, P6): many threads call AuditLog::Append with the entry
+// DriveService writes for MoveAbsolute, each returning only once its entry committed, against a
+// bare SQLite insert loop measured in the same run, on the same file system, with the same
+// PRAGMAs (WAL, the gateway's synchronous level) and the same rows per transaction.
+//
+// Baseline (docs/performance.md "Audited commands (P6)"): one thread, raw sqlite3 API, a plain
+// table with the audit row's 14 columns and no index or trigger; rows of the same bytes (same
+// strings, 64-character hashes); BEGIN, K × (bind, step, reset), COMMIT, where K is the mean
+// number of entries per transaction the audited run achieved. An informational second baseline
+// adds audit_log's five secondary indexes (what the queries of issue 7 need).
+// Run: build/bench/audit_bench [seconds per run = 2] [rounds = 3]
+#include <sqlite3.h>
+#include <stdlib.h>
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "bench/report.h"
+#include "storage/audit_log.h"
+#include "storage/db.h"
+#include "storage/migrations.h"
+
+namespace {
+
+using Steady = std::chrono::steady_clock;
+namespace fs = std::filesystem;
+namespace storage = drivegw::storage;
+
+[[noreturn]] void Die(const std::string& what) {
+  std::fprintf(stderr, "audit_bench: %s\n", what.c_str());
+  std::exit(1);
+}
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+
+double Percentile(std::vector<double>& v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
+}
+
+// CPU seconds (user + system) of the whole process so far.
+double CpuSeconds() {
+  rusage u{};
+  ::getrusage(RUSAGE_SELF, &u);
+  auto s = [](const timeval& t) { return static_cast<double>(t.tv_sec) + t.tv_usec / 1e6; };
+  return s(u.ru_utime) + s(u.ru_stime);
+}
+
+double LoadAverage() {
+  double l[1];
+  return ::getloadavg(l, 1) == 1 ? l[0] : -1;
+}
+
+// What DriveServiceCore::Audit writes for a successful MoveAbsolute (server/core/drive_service.cpp:
+// ToAuditJson of the request, proto field names; WriteAudit's short form, no before/after).
+storage::AuditEntry MoveEntry(int thread, int64_t i) {
+  storage::AuditEntry e;
+  e.time = std::chrono::system_clock::now();
+  e.principal = "mes-line-3";
+  e.role = "operator";
+  e.source_address = "ipv4:10.0.3.17:53122";
+  e.drive = absl::StrCat("x", thread % 8);
+  e.action = "MoveAbsolute";
+  e.request_json = absl::StrCat("{\"name\":\"drives/", e.drive, "\",\"position_mm\":", i % 200,
+                                ".5,\"velocity_mm_s\":500,\"acceleration_mm_s2\":5000}");
+  return e;
+}
+
+// A fresh directory per run on the file system under test (DGW_BENCH_DIR or the temp dir).
+struct RunDir {
+  fs::path path;
+  explicit RunDir(const std::string& tag) {
+    const char* base = std::getenv("DGW_BENCH_DIR");
+    fs::path root = base != nullptr ? fs::path(base) : fs::temp_directory_path();
+    path = root / absl::StrCat("audit_bench.", ::getpid(), ".", tag);
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~RunDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::string File() const { return (path / "a.db").string(); }
+};
+
+// Experiments (docs/performance.md): extra PRAGMAs applied to both sides, e.g.
+// DGW_BENCH_PRAGMAS="PRAGMA wal_autocheckpoint=10000".
+std::string ExtraPragmas() {
+  const char* p = std::getenv("DGW_BENCH_PRAGMAS");
+  return p != nullptr ? p : "";
+}
+
+struct AuditRun {
+  double per_s = 0;
+  double rows_per_txn = 1;  // K for the baseline
+  double p50_us = 0, p99_us = 0;
+  double cpu_us = 0;  // process CPU per entry
+  int64_t entries = 0;
+};
+
+struct BareRun {
+  double per_s = 0;
+  double cpu_us = 0;
+};
+
+AuditRun RunAudited(int threads, double seconds, bool full_sync) {
+  RunDir dir(absl::StrCat("audit", threads));
+  auto db = storage::Db::Open(dir.File());
+  if (!db.ok()) Die(db.status().ToString());
+  if (full_sync && !db->Exec("PRAGMA synchronous=FULL").ok()) Die("synchronous=FULL");
+  if (!ExtraPragmas().empty() && !db->Exec(ExtraPragmas()).ok()) Die("DGW_BENCH_PRAGMAS");
+  if (absl::Status m = storage::Migrate(*db); !m.ok()) Die(m.ToString());
+  storage::AuditLog log(*db);
+  // The genesis anchor is written once, outside the measured window.
+  if (absl::Status s = log.Append(MoveEntry(0, 0)); !s.ok()) Die(s.ToString());
+  const storage::AuditCommitStats before = log.CommitStats();
+
+  std::atomic<bool> stop{false};
+  std::atomic<int> failures{0};
+  std::vector<std::vector<double>> lat(threads);
+  std::vector<int64_t> done(threads, 0);
+  std::vector<std::thread> workers;
+  const double cpu0 = CpuSeconds();
+  const Steady::time_point start = Steady::now();
+  for (int t = 0; t < threads; ++t) {
+    workers.emplace_back([&, t] {
+      lat[t].reserve(1 << 16);
+      for (int64_t i = 0; !stop.load(std::memory_order_relaxed); ++i) {
+        const storage::AuditEntry e = MoveEntry(t, i);
+        const Steady::time_point t0 = Steady::now();
+        if (!log.Append(e).ok()) ++failures;
+        lat[t].push_back(std::chrono::duration<double, std::micro>(Steady::now() - t0).count());
+        ++done[t];
+      }
+    });
+  }
+  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  stop = true;
+  for (auto& w : workers) w.join();
+  const double elapsed = std::chrono::duration<double>(Steady::now() - start).count();
+  const double cpu = CpuSeconds() - cpu0;
+  if (failures.load() != 0) Die(absl::StrCat(failures.load(), " audited appends failed"));
+
+  AuditRun r;
+  std::vector<double> all;
+  for (int t = 0; t < threads; ++t) {
+    r.entries += done[t];
+    all.insert(all.end(), lat[t].begin(), lat[t].end());
+  }
+  r.per_s = static_cast<double>(r.entries) / elapsed;
+  r.cpu_us = cpu * 1e6 / static_cast<double>(std::max<int64_t>(1, r.entries));
+  r.p50_us = Percentile(all, 0.50);
+  r.p99_us = Percentile(all, 0.99);
+  const storage::AuditCommitStats after = log.CommitStats();
+  const int64_t txns = after.transactions - before.transactions;
+  r.rows_per_txn = txns > 0 ? static_cast<double>(after.entries - before.entries) / txns : 1;
+  // Every measured entry is a link of one verified chain: the benchmark counts only real work.
+  auto v = log.Verify();
+  if (!v.ok() || !v->ok) Die("the chain does not verify after the run");
+  if (v->verified_entries != r.entries + 2) {  // + genesis + the warm-up entry
+    Die(absl::StrCat("chain holds ", v->verified_entries, " entries, expected ", r.entries + 2));
+  }
+  return r;
+}
+
+void Check(sqlite3* db, int rc, const char* what) {
+  if (rc != SQLITE_OK && rc != SQLITE_DONE && rc != SQLITE_ROW) {
+    Die(absl::StrCat(what, ": ", sqlite3_errmsg(db)));
+  }
+}
+
+// The bare loop: raw sqlite3, same PRAGMAs as storage::Db::Open, K rows per transaction.
+BareRun RunBare(double rows_per_txn, double seconds, bool full_sync, bool indexed) {
+  RunDir dir(indexed ? "bare_idx" : "bare");
+  sqlite3* db = nullptr;
+  Check(
+      db,
+      sqlite3_open_v2(dir.File().c_str(), &db,
+                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX, nullptr),
+      "open");
+  const std::string pragmas = absl::StrCat("PRAGMA busy_timeout=5000; PRAGMA journal_mode=WAL; ",
+                                           "PRAGMA synchronous=", full_sync ? "FULL" : "NORMAL",
+                                           "; PRAGMA foreign_keys=ON; ", ExtraPragmas());
+  Check(db, sqlite3_exec(db, pragmas.c_str(), nullptr, nullptr, nullptr), "pragmas");
+  Check(db,
+        sqlite3_exec(db,
+                     "CREATE TABLE t (id INTEGER PRIMARY KEY, ts TEXT NOT NULL, principal TEXT "
+                     "NOT NULL, source_address TEXT NOT NULL, drive TEXT NOT NULL, action TEXT "
+                     "NOT NULL, request_json TEXT NOT NULL, result_code INTEGER NOT NULL, "
+                     "result_message TEXT NOT NULL, seq INTEGER, role TEXT NOT NULL, before_json "
+                     "TEXT NOT NULL, after_json TEXT NOT NULL, prev_hash TEXT NOT NULL, hash TEXT "
+                     "NOT NULL)",
+                     nullptr, nullptr, nullptr),
+        "create");
+  if (indexed) {
+    Check(db,
+          sqlite3_exec(db,
+                       "CREATE INDEX t_drive ON t (drive, id); CREATE INDEX t_action ON t "
+                       "(action, id); CREATE INDEX t_ts ON t (ts); CREATE UNIQUE INDEX t_seq ON t "
+                       "(seq); CREATE INDEX t_principal ON t (principal, id);",
+                       nullptr, nullptr, nullptr),
+          "indexes");
+  }
+  sqlite3_stmt* ins = nullptr;
+  Check(db,
+        sqlite3_prepare_v3(db,
+                           "INSERT INTO t (ts, principal, source_address, drive, action, "
+                           "request_json, result_code, result_message, seq, role, before_json, "
+                           "after_json, prev_hash, hash) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, "
+                           "?9, ?10, ?11, ?12, ?13, ?14)",
+                           -1, SQLITE_PREPARE_PERSISTENT, &ins, nullptr),
+        "prepare");
+  const std::string hash(64, 'a');
+  const int k = std::max(1, static_cast<int>(rows_per_txn + 0.5));
+  auto bind_text = [&](int i, const std::string& s) {
+    Check(db, sqlite3_bind_text(ins, i, s.data(), static_cast<int>(s.size()), SQLITE_TRANSIENT),
+          "bind");
+  };
+  int64_t rows = 0;
+  const double cpu0 = CpuSeconds();
+  const Steady::time_point start = Steady::now();
+  const Steady::time_point end =
+      start + std::chrono::duration_cast<Steady::duration>(std::chrono::duration<double>(seconds));
+  while (Steady::now() < end) {
+    Check(db, sqlite3_exec(db, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr), "begin");
+    for (int j = 0; j < k; ++j, ++rows) {
+      const storage::AuditEntry e = MoveEntry(static_cast<int>(rows % 32), rows);
+      bind_text(1, storage::FormatTimestamp(e.time));
+      bind_text(2, e.principal);
+      bind_text(3, e.source_address);
+      bind_text(4, e.drive);
+      bind_text(5, e.action);
+      bind_text(6, e.request_json);
+      Check(db, sqlite3_bind_int(ins, 7, e.result_code), "bind");
+      bind_text(8, e.result_message);
+      Check(db, sqlite3_bind_int64(ins, 9, rows + 1), "bind");
+      bind_text(10, e.role);
+      bind_text(11, e.before_json);
+      bind_text(12, e.after_json);
+      bind_text(13, hash);
+      bind_text(14, hash);
+      Check(db, sqlite3_step(ins), "insert");
+      sqlite3_reset(ins);
+    }
+    Check(db, sqlite3_exec(db, "COMMIT", nullptr, nullptr, nullptr), "commit");
+  }
+  const double elapsed = std::chrono::duration<double>(Steady::now() - start).count();
+  const double cpu = CpuSeconds() - cpu0;
+  sqlite3_finalize(ins);
+  sqlite3_close_v2(db);
+  return {static_cast<double>(rows) / elapsed, cpu * 1e6 / static_cast<double>(rows)};
+}
+
+struct Scenario {
+  int threads;
+  std::vector<double> audited, bare, bare_idx, k, p50, p99, cpu, bare_cpu, bare_idx_cpu;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const double seconds = argc > 1 ? std::max(0.05, std::atof(argv[1])) : 2.0;
+  const int rounds = argc > 2 ? std::max(1, std::atoi(argv[2])) : 3;
+  const bool full_sync = std::getenv("DGW_BENCH_FULL_SYNC") != nullptr;
+  const char* sync = full_sync ? "FULL" : "NORMAL (the gateway's, storage/db.cpp)";
+  std::printf("audit_bench: %.2f s per run, %d rounds, synchronous=%s, load %.2f\n", seconds,
+              rounds, sync, LoadAverage());
+
+  // DGW_BENCH_THREADS=32 runs one scenario (profiling).
+  std::vector<Scenario> scenarios;
+  if (const char* t = std::getenv("DGW_BENCH_THREADS"); t != nullptr) {
+    scenarios.push_back({std::max(1, std::atoi(t))});
+  } else {
+    for (int n : {1, 8, 32}) scenarios.push_back({n});
+  }
+  // Interleaved rounds: audited, then its baselines with the K it achieved, per thread count.
+  for (int round = 0; round < rounds; ++round) {
+    for (Scenario& s : scenarios) {
+      const AuditRun a = RunAudited(s.threads, seconds, full_sync);
+      s.audited.push_back(a.per_s);
+      s.k.push_back(a.rows_per_txn);
+      s.p50.push_back(a.p50_us);
+      s.p99.push_back(a.p99_us);
+      s.cpu.push_back(a.cpu_us);
+      const BareRun b = RunBare(a.rows_per_txn, seconds, full_sync, false);
+      s.bare.push_back(b.per_s);
+      s.bare_cpu.push_back(b.cpu_us);
+      const BareRun bi = RunBare(a.rows_per_txn, seconds, full_sync, true);
+      s.bare_idx.push_back(bi.per_s);
+      s.bare_idx_cpu.push_back(bi.cpu_us);
+    }
+  }
+
+  std::printf(
+      "\n| threads | audited/s | rows/txn K | p50 µs | p99 µs | bare/s (K) | ratio | "
+      "bare+indexes/s | ratio | CPU µs/entry audited / bare / bare+idx |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n");
+  double worst_rate = 0, worst_ratio = 0;
+  nlohmann::json detail = nlohmann::json::object();
+  bool first = true;
+  for (const Scenario& s : scenarios) {
+    const double a = Median(s.audited), b = Median(s.bare), bi = Median(s.bare_idx);
+    const double k = Median(s.k), ratio = a / b, ratio_idx = a / bi;
+    std::printf(
+        "| %d | %.0f | %.1f | %.0f | %.0f | %.0f | %.2f | %.0f | %.2f | %.1f / %.1f / %.1f |\n",
+        s.threads, a, k, Median(s.p50), Median(s.p99), b, ratio, bi, ratio_idx, Median(s.cpu),
+        Median(s.bare_cpu), Median(s.bare_idx_cpu));
+    detail[absl::StrCat("threads_", s.threads)] = {
+        {"audited_per_s", a},
+        {"rows_per_txn", k},
+        {"p50_us", Median(s.p50)},
+        {"p99_us", Median(s.p99)},
+        {"bare_per_s", b},
+        {"ratio", ratio},
+        {"bare_indexed_per_s", bi},
+        {"ratio_indexed", ratio_idx},
+        {"cpu_us_per_entry", Median(s.cpu)},
+        {"bare_cpu_us_per_row", Median(s.bare_cpu)},
+        {"bare_indexed_cpu_us_per_row", Median(s.bare_idx_cpu)}};
+    // The target is about many concurrent callers (8 and 32); one caller is informational.
+    if (s.threads < 8) continue;
+    if (first || a < worst_rate) worst_rate = a;
+    if (first || ratio < worst_ratio) worst_ratio = ratio;
+    first = false;
+  }
+  detail["synchronous"] = full_sync ? "FULL" : "NORMAL";
+  detail["seconds_per_run"] = seconds;
+  detail["rounds"] = rounds;
+  detail["load_average"] = LoadAverage();
+  const std::string baseline =
+      "bare sqlite3 insert loop, 1 thread, plain 14-column table, same row bytes, same PRAGMAs, "
+      "K rows per transaction (K = audited run's mean)";
+  drivegw::bench::Report({"P6", "audited_per_s", worst_rate, "per_s", ">=20000", baseline, detail});
+  drivegw::bench::Report({"P6", "audit_ratio", worst_ratio, "ratio", ">=0.8", baseline, detail});
+  return 0;
+}
