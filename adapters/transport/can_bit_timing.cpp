@@ -2,6 +2,7 @@
 // user-space bus (docs/decisions/805-udp-bus-bit-timing.md).
 #include "adapters/transport/can_bit_timing.h"
 
+#include <poll.h>
 #include <sys/timerfd.h>
 #include <unistd.h>
 
@@ -10,6 +11,7 @@
 #include <cstring>
 #include <ctime>
 #include <thread>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 
@@ -120,47 +122,84 @@ std::chrono::nanoseconds CanBitTime(uint32_t bits, uint32_t bitrate) {
                                   bitrate);
 }
 
+absl::StatusOr<MonotonicTimer> MonotonicTimer::Create() {
+  const int fd = ::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+  if (fd < 0) {
+    return absl::InternalError(absl::StrCat("can timer: timerfd_create: ", std::strerror(errno)));
+  }
+  return MonotonicTimer(fd);
+}
+
+MonotonicTimer& MonotonicTimer::operator=(MonotonicTimer&& other) noexcept {
+  if (this != &other) {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = other.fd_;
+    other.fd_ = -1;
+  }
+  return *this;
+}
+
+MonotonicTimer::~MonotonicTimer() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void MonotonicTimer::Arm(SteadyTime::time_point t) {
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch());
+  itimerspec spec{};
+  spec.it_value.tv_sec = static_cast<time_t>(ns.count() / 1'000'000'000);
+  spec.it_value.tv_nsec = static_cast<long>(ns.count() % 1'000'000'000);
+  if (spec.it_value.tv_sec <= 0 && spec.it_value.tv_nsec <= 0)
+    spec.it_value.tv_nsec = 1;  // 0 disarms
+  (void)::timerfd_settime(fd_, TFD_TIMER_ABSTIME, &spec, nullptr);
+}
+
+void MonotonicTimer::Disarm() {
+  const itimerspec off{};
+  (void)::timerfd_settime(fd_, 0, &off, nullptr);
+  uint64_t expirations = 0;
+  (void)::read(fd_, &expirations, sizeof(expirations));  // non-blocking: clears a pending expiry
+}
+
+void MonotonicTimer::SleepUntil(SteadyTime::time_point t) {
+  if (SteadyTime::now() >= t) return;
+  Arm(t);
+  pollfd pfd{fd_, POLLIN, 0};
+  while (SteadyTime::now() < t) {
+    if (::poll(&pfd, 1, -1) < 0 && errno != EINTR) {
+      std::this_thread::sleep_until(t);  // still absolute; only the timer slack comes back
+      break;
+    }
+    if (pfd.revents & POLLIN) break;
+  }
+  Disarm();
+}
+
+CanTxPacer::CanTxPacer(uint32_t bitrate, MonotonicTimer timer)
+    : bitrate_(bitrate),
+      timer_(std::move(timer)),
+      longest_frame_(std::chrono::duration_cast<SteadyTime::duration>(
+          CanBitTime(CanWorstCaseFrameBits(8, /*extended=*/true), bitrate))) {}
+
 absl::StatusOr<std::unique_ptr<CanTxPacer>> CanTxPacer::Create(uint32_t bitrate) {
   if (!IsSupportedCanBitrate(bitrate)) {
     return absl::InvalidArgumentError(absl::StrCat(
         "can bitrate: ", bitrate, " is not one of 125000, 250000, 500000, 1000000 bit/s"));
   }
-  // libstdc++'s steady_clock is CLOCK_MONOTONIC, so its time points arm this timer directly.
-  const int fd = ::timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC);
-  if (fd < 0) {
-    return absl::InternalError(absl::StrCat("can pacer: timerfd_create: ", std::strerror(errno)));
-  }
-  return std::unique_ptr<CanTxPacer>(new CanTxPacer(bitrate, fd));
+  auto timer = MonotonicTimer::Create();
+  if (!timer.ok()) return timer.status();
+  return std::unique_ptr<CanTxPacer>(new CanTxPacer(bitrate, *std::move(timer)));
 }
 
-CanTxPacer::~CanTxPacer() { ::close(timer_fd_); }
-
-void CanTxPacer::SleepUntil(SteadyTime::time_point t) {
-  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch());
-  itimerspec spec{};
-  spec.it_value.tv_sec = static_cast<time_t>(ns.count() / 1'000'000'000);
-  spec.it_value.tv_nsec = static_cast<long>(ns.count() % 1'000'000'000);
-  if (spec.it_value.tv_sec == 0 && spec.it_value.tv_nsec == 0) return;  // 0 would disarm
-  if (::timerfd_settime(timer_fd_, TFD_TIMER_ABSTIME, &spec, nullptr) != 0) {
-    std::this_thread::sleep_until(t);  // still absolute; only the timer slack comes back
-    return;
-  }
-  uint64_t expirations = 0;
-  // A blocking read returns once the timer has expired (at once when `t` has passed).
-  while (::read(timer_fd_, &expirations, sizeof(expirations)) < 0 && errno == EINTR) {
-  }
-}
-
-CanTxPacer::SteadyTime::time_point CanTxPacer::WaitEndOfFrame(const CanFrame& frame,
-                                                              SteadyTime::time_point queued) {
+CanTxPacer::Slot CanTxPacer::Transmit(const CanFrame& frame, SteadyTime::time_point queued) {
   // The frame starts when both it is queued and the node's previous frame has ended; measuring
   // from the schedule (free_at_), not from when this thread woke, keeps bursts drift-free.
-  const SteadyTime::time_point start = std::max(queued, free_at_);
-  const SteadyTime::time_point end = start + std::chrono::duration_cast<SteadyTime::duration>(
-                                                 CanBitTime(CanFrameBits(frame), bitrate_));
-  free_at_ = end;
-  if (SteadyTime::now() < end) SleepUntil(end);
-  return end;
+  Slot slot;
+  slot.start = std::max(queued, free_at_);
+  slot.end = slot.start + std::chrono::duration_cast<SteadyTime::duration>(
+                              CanBitTime(CanFrameBits(frame), bitrate_));
+  free_at_ = slot.end;
+  timer_.SleepUntil(slot.start);
+  return slot;
 }
 
 }  // namespace drivegw::transport

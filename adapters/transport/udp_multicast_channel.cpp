@@ -43,6 +43,10 @@ constexpr char kRouteHint[] =
 
 constexpr std::chrono::milliseconds kSendWait{100};
 
+double WallSeconds() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
 bool IsRouteError(int err) {
   return err == ENODEV || err == ENETUNREACH || err == EHOSTUNREACH || err == ENETDOWN;
 }
@@ -135,7 +139,8 @@ std::vector<uint8_t> EncodePythonCanMessage(const CanFrame& frame, double timest
   return w.Take();
 }
 
-absl::StatusOr<CanFrame> DecodePythonCanMessage(std::span<const uint8_t> datagram) {
+absl::StatusOr<CanFrame> DecodePythonCanMessage(std::span<const uint8_t> datagram,
+                                                double* timestamp_s) {
   msgpack::Reader r(datagram);
   auto entries = r.ReadMapHeader();
   if (!entries.ok()) return MessageError("", entries.status().message());
@@ -238,7 +243,9 @@ absl::StatusOr<CanFrame> DecodePythonCanMessage(std::span<const uint8_t> datagra
   if (!r.at_end()) {
     return MessageError("", absl::StrCat(datagram.size() - r.position(), " trailing bytes"));
   }
-  (void)timestamp;  // the receive time matters, as python-can replaces it too
+  // python-can replaces the timestamp with its receive time; a paced channel reads it as the
+  // frame's end on the wire (decision 805).
+  if (timestamp_s != nullptr) *timestamp_s = timestamp;
   // can.Message._check, in its order.
   if (remote && error) return MessageError("is_remote_frame", "a frame cannot be remote and error");
   if (remote && fd) return MessageError("is_remote_frame", "CAN FD has no remote frames");
@@ -363,6 +370,9 @@ absl::StatusOr<std::unique_ptr<UdpMulticastChannel>> UdpMulticastChannel::Open(O
       return absl::Status(pacer.status().code(),
                           absl::StrCat(where, ": ", pacer.status().message()));
     ch->pacer_ = *std::move(pacer);
+    auto timer = MonotonicTimer::Create();
+    if (!timer.ok()) return timer.status();
+    ch->rx_timer_.emplace(*std::move(timer));
   }
   log::Info("can_open", log::Fields()
                             .Add("bus", ch->name_)
@@ -380,19 +390,19 @@ UdpMulticastChannel::~UdpMulticastChannel() {
 
 absl::Status UdpMulticastChannel::Send(const CanFrame& frame) {
   if (absl::Status s = ValidateCanFrame(frame); !s.ok()) return s;
-  if (!pacer_) return SendDatagram(frame);
+  if (!pacer_) return SendDatagram(frame, WallSeconds());
   // Read the clock before queueing behind other senders: a frame queued while the previous
-  // one is on the wire starts at its end (decision 805).
+  // one is on the wire starts at its end. The datagram leaves when the frame starts and carries
+  // its end, when paced receivers hand it over (decision 805): the UDP hop hides in the bit time.
   const auto queued = SteadyTime::now();
   std::lock_guard lock(pace_mu_);
-  pacer_->WaitEndOfFrame(frame, queued);
-  return SendDatagram(frame);
+  const CanTxPacer::Slot slot = pacer_->Transmit(frame, queued);
+  return SendDatagram(
+      frame, WallSeconds() + std::chrono::duration<double>(slot.end - SteadyTime::now()).count());
 }
 
-absl::Status UdpMulticastChannel::SendDatagram(const CanFrame& frame) {
-  const double now_s =
-      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-  const std::vector<uint8_t> bytes = EncodePythonCanMessage(frame, now_s);
+absl::Status UdpMulticastChannel::SendDatagram(const CanFrame& frame, double timestamp_s) {
+  const std::vector<uint8_t> bytes = EncodePythonCanMessage(frame, timestamp_s);
   // A full send buffer (a burst faster than the interface queue drains) is waited out for
   // up to kSendWait, as a CAN controller's transmit queue would; python-can blocks outright.
   const auto give_up = SteadyTime::now() + kSendWait;
@@ -427,14 +437,55 @@ bool UdpMulticastChannel::Accepts(const CanFrame& frame) const {
                      [&](const CanFilter& f) { return f.Matches(frame); });
 }
 
+std::optional<CanFrame> UdpMulticastChannel::PopDueLocked(SteadyTime::time_point now) {
+  if (held_.empty() || held_.front().at > now) return std::nullopt;
+  const CanFrame frame = held_.front().frame;
+  held_.pop_front();
+  return frame;
+}
+
+void UdpMulticastChannel::HoldLocked(const CanFrame& frame, double timestamp_s) {
+  // Due at the announced end of the frame, at most one longest frame from now: a sender paced at
+  // a slower rate or with another clock must not stall this node (decision 805).
+  const auto now = SteadyTime::now();
+  const double ahead_s = timestamp_s - WallSeconds();
+  const auto ahead = ahead_s <= 0 ? SteadyTime::duration::zero()
+                                  : std::min(std::chrono::duration_cast<SteadyTime::duration>(
+                                                 std::chrono::duration<double>(ahead_s)),
+                                             pacer_->longest_frame());
+  const HeldFrame held{now + ahead, frame};
+  // Frames of several senders interleave: keep end-of-frame order (stable for equal ends).
+  const auto pos =
+      std::upper_bound(held_.begin(), held_.end(), held.at,
+                       [](SteadyTime::time_point at, const HeldFrame& h) { return at < h.at; });
+  held_.insert(pos, held);
+}
+
 absl::StatusOr<std::optional<CanFrame>> UdpMulticastChannel::Receive(
     std::chrono::nanoseconds timeout) {
   const auto wait = std::clamp(timeout, std::chrono::nanoseconds::zero(),
                                std::chrono::nanoseconds(std::chrono::hours(24 * 365)));
   const auto deadline = SteadyTime::now() + std::chrono::duration_cast<SteadyTime::duration>(wait);
+  auto deliver = [&](const CanFrame& frame) {
+    rx_.fetch_add(1, std::memory_order_relaxed);
+    if (trace_) trace_->Record(name_, frame, CanDirection::kRx);
+    return std::optional<CanFrame>(frame);
+  };
   for (;;) {
-    std::array<pollfd, 2> fds{{{rx_fd_, POLLIN, 0}, {wake_fd_, POLLIN, 0}}};
-    const int ready = ::poll(fds.data(), fds.size(), PollMillis(deadline - SteadyTime::now()));
+    std::array<pollfd, 3> fds{{{rx_fd_, POLLIN, 0}, {wake_fd_, POLLIN, 0}, {-1, POLLIN, 0}}};
+    auto until = deadline;
+    if (pacer_) {
+      std::lock_guard lock(held_mu_);
+      if (auto due = PopDueLocked(SteadyTime::now())) return deliver(*due);
+      if (!held_.empty()) {
+        // The timerfd wakes at the held frame's end without poll's millisecond rounding and
+        // timer slack.
+        rx_timer_->Arm(held_.front().at);
+        fds[2].fd = rx_timer_->fd();
+        until = std::min(until, held_.front().at + std::chrono::milliseconds(1));
+      }
+    }
+    const int ready = ::poll(fds.data(), fds.size(), PollMillis(until - SteadyTime::now()));
     if (ready < 0) {
       if (errno == EINTR) continue;
       const int err = errno;
@@ -474,8 +525,9 @@ absl::StatusOr<std::optional<CanFrame>> UdpMulticastChannel::Receive(
                      log::Fields().Add("bus", name_).Add("reason", "oversize").Add("bytes", n));
           continue;
         }
-        auto frame =
-            DecodePythonCanMessage(std::span<const uint8_t>(buffer.data(), static_cast<size_t>(n)));
+        double timestamp_s = 0;
+        auto frame = DecodePythonCanMessage(
+            std::span<const uint8_t>(buffer.data(), static_cast<size_t>(n)), &timestamp_s);
         if (!frame.ok()) {
           dropped_malformed_.fetch_add(1, std::memory_order_relaxed);
           log::Debug("can_drop",
@@ -488,12 +540,18 @@ absl::StatusOr<std::optional<CanFrame>> UdpMulticastChannel::Receive(
           continue;
         }
         if (!Accepts(*frame)) continue;
-        rx_.fetch_add(1, std::memory_order_relaxed);
-        if (trace_) trace_->Record(name_, *frame, CanDirection::kRx);
-        return std::optional<CanFrame>(*frame);
+        if (!pacer_) return deliver(*frame);
+        std::lock_guard lock(held_mu_);
+        HoldLocked(*frame, timestamp_s);
+        if (held_.front().at <= SteadyTime::now()) break;  // one is due: hand it over first
       }
     }
-    if (SteadyTime::now() >= deadline) return std::nullopt;
+    if (SteadyTime::now() >= deadline) {
+      if (!pacer_) return std::nullopt;
+      std::lock_guard lock(held_mu_);
+      if (auto due = PopDueLocked(SteadyTime::now())) return deliver(*due);
+      return std::nullopt;
+    }
   }
 }
 

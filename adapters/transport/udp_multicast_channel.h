@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -31,7 +32,9 @@ std::vector<uint8_t> EncodePythonCanMessage(const CanFrame& frame, double timest
 // map whose keys are can.Message arguments (missing ones take can.Message's defaults, note
 // is_extended_id=True), dlc == len(data) unless RTR, ids within 11/29 bits, no trailing bytes.
 // InvalidArgument naming the key otherwise; Unimplemented for CAN FD frames (is_fd true).
-absl::StatusOr<CanFrame> DecodePythonCanMessage(std::span<const uint8_t> datagram);
+// `timestamp_s`, when given, receives the message's timestamp (0 when absent).
+absl::StatusOr<CanFrame> DecodePythonCanMessage(std::span<const uint8_t> datagram,
+                                                double* timestamp_s = nullptr);
 
 class UdpMulticastChannel final : public CanChannel {
  public:
@@ -54,10 +57,12 @@ class UdpMulticastChannel final : public CanChannel {
   UdpMulticastChannel& operator=(const UdpMulticastChannel&) = delete;
 
   // Waits up to 100 ms for room when the socket's send buffer is full (a burst), then
-  // Unavailable; the wait never spins (poll for POLLOUT). With a bit rate, first waits for the
-  // frame's turn and its bit time: the datagram leaves when the frame would have ended on the
-  // wire, so Send returns after it (senders of one channel queue in call order).
+  // Unavailable; the wait never spins (poll for POLLOUT). With a bit rate, first waits until the
+  // node's previous frame has ended (senders of one channel queue in call order); the datagram
+  // then carries the end of this frame on the wire as its timestamp (decision 805).
   absl::Status Send(const CanFrame& frame) override;
+  // With a bit rate, a frame is returned no earlier than the end its sender's timestamp
+  // announces (at most one longest frame after it arrived), in end-of-frame order.
   absl::StatusOr<std::optional<CanFrame>> Receive(std::chrono::nanoseconds timeout) override;
   void Wake() override;
   absl::Status SetFilters(std::span<const CanFilter> filters) override;
@@ -73,7 +78,13 @@ class UdpMulticastChannel final : public CanChannel {
  private:
   UdpMulticastChannel() = default;
   bool Accepts(const CanFrame& frame) const;
-  absl::Status SendDatagram(const CanFrame& frame);
+  absl::Status SendDatagram(const CanFrame& frame, double timestamp_s);
+  struct HeldFrame {
+    std::chrono::steady_clock::time_point at;  // the frame's end on the wire: hand over then
+    CanFrame frame;
+  };
+  std::optional<CanFrame> PopDueLocked(std::chrono::steady_clock::time_point now);
+  void HoldLocked(const CanFrame& frame, double timestamp_s);
 
   std::string name_;
   int rx_fd_ = -1;            // bound to GROUP:PORT, member of GROUP
@@ -84,8 +95,11 @@ class UdpMulticastChannel final : public CanChannel {
   std::shared_ptr<CandumpTrace> trace_;
   std::atomic<CanBusState> state_{CanBusState::kActive};
 
-  std::mutex pace_mu_;                 // the transmit queue of a paced channel
-  std::unique_ptr<CanTxPacer> pacer_;  // null: unpaced
+  std::mutex pace_mu_;                      // the transmit queue of a paced channel
+  std::unique_ptr<CanTxPacer> pacer_;       // null: unpaced
+  std::optional<MonotonicTimer> rx_timer_;  // paced: wakes Receive at a held frame's end
+  std::mutex held_mu_;
+  std::deque<HeldFrame> held_;  // paced: received frames not yet at their end, in end order
 
   mutable std::mutex filters_mu_;
   std::vector<CanFilter> filters_;  // empty: accept all

@@ -3,6 +3,9 @@
 // clock (lower bounds only: a loaded host can only make frames later), and `@BITRATE` specs.
 #include "adapters/transport/can_bit_timing.h"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -90,18 +93,19 @@ TEST(CanTxPacer, Create_RefusesAnUnsupportedBitrate) {
   for (uint32_t rate : kCanBitrates) EXPECT_TRUE(CanTxPacer::Create(rate).ok()) << rate;
 }
 
-// Frames queued together end exactly one frame time apart on the schedule, however late the
-// thread wakes; the clock after each wait is never before the frame's end.
-TEST(CanTxPacer, Burst_EndsOneFrameTimeApartWithoutDrift) {
+// Frames queued together start and end exactly one frame time apart on the schedule, however
+// late the thread wakes; Transmit returns no earlier than the frame's start.
+TEST(CanTxPacer, Burst_SlotsOneFrameTimeApartWithoutDrift) {
   auto pacer = CanTxPacer::Create(500000);
   ASSERT_TRUE(pacer.ok());
   const CanFrame f = Data(0x605, {0x40, 0x41, 0x60, 0, 0, 0, 0, 0});
   const auto frame_time = Ticks(CanBitTime(CanFrameBits(f), 500000));
   const auto t0 = SteadyTime::now();
   for (int i = 1; i <= 30; ++i) {
-    const auto end = (*pacer)->WaitEndOfFrame(f, t0);
-    EXPECT_EQ(end, t0 + i * frame_time) << i;
-    EXPECT_GE(SteadyTime::now(), end) << i;
+    const CanTxPacer::Slot slot = (*pacer)->Transmit(f, t0);
+    EXPECT_EQ(slot.start, t0 + (i - 1) * frame_time) << i;
+    EXPECT_EQ(slot.end, t0 + i * frame_time) << i;
+    EXPECT_GE(SteadyTime::now(), slot.start) << i;
   }
 }
 
@@ -111,9 +115,22 @@ TEST(CanTxPacer, IdleNode_StartsAtTheHandOver) {
   ASSERT_TRUE(pacer.ok());
   const CanFrame f = Data(0x080, {});
   const auto frame_time = Ticks(CanBitTime(CanFrameBits(f), 1000000));
-  const auto first = (*pacer)->WaitEndOfFrame(f, SteadyTime::now());
-  const auto later = first + std::chrono::milliseconds(5);
-  EXPECT_EQ((*pacer)->WaitEndOfFrame(f, later), later + frame_time);
+  const auto first = (*pacer)->Transmit(f, SteadyTime::now());
+  const auto later = first.end + std::chrono::milliseconds(5);
+  const CanTxPacer::Slot slot = (*pacer)->Transmit(f, later);
+  EXPECT_EQ(slot.start, later);
+  EXPECT_EQ(slot.end, later + frame_time);
+  EXPECT_GE(SteadyTime::now(), later);
+}
+
+TEST(MonotonicTimer, SleepUntil_NeverReturnsEarly) {
+  auto timer = MonotonicTimer::Create();
+  ASSERT_TRUE(timer.ok());
+  for (int i = 0; i < 20; ++i) {
+    const auto t = SteadyTime::now() + std::chrono::microseconds(300);
+    timer->SleepUntil(t);
+    EXPECT_GE(SteadyTime::now(), t) << i;
+  }
 }
 
 UdpMulticastChannel::Options Bus(uint16_t port, uint32_t bitrate) {
@@ -124,12 +141,12 @@ UdpMulticastChannel::Options Bus(uint16_t port, uint32_t bitrate) {
   return o;
 }
 
-// Each Send returns no earlier than the end of all frames before it plus its own bit time, and
-// the last frame arrives no earlier than the whole burst's bit time after the first Send.
+// Between paced nodes each frame arrives no earlier than the end of all frames before it plus
+// its own bit time, in the order sent; each Send returns no earlier than its frame's start.
 TEST(UdpMulticastChannelPacing, Burst_FramesSpacedByTheirBitTime) {
   const uint16_t port = UniquePort();
   auto tx = UdpMulticastChannel::Open(Bus(port, 125000));
-  auto rx = UdpMulticastChannel::Open(Bus(port, 0));
+  auto rx = UdpMulticastChannel::Open(Bus(port, 125000));
   ASSERT_TRUE(tx.ok() && rx.ok());
   EXPECT_EQ((*tx)->bitrate(), 125000u);
   constexpr int kFrames = 40;
@@ -137,32 +154,57 @@ TEST(UdpMulticastChannelPacing, Burst_FramesSpacedByTheirBitTime) {
   for (int i = 0; i < kFrames; ++i) {
     frames.push_back(Data(0x42D, {static_cast<uint8_t>(i), 1, 2, 3, 4, 5, 6, 7}));
   }
-  std::atomic<int> received{0};
-  SteadyTime::time_point last_arrival{};
+  std::vector<SteadyTime::time_point> arrivals;
   std::thread reader([&] {
-    while (received < kFrames) {
+    while (arrivals.size() < kFrames) {
       auto f = (*rx)->Receive(std::chrono::seconds(5));
       if (!f.ok() || !f->has_value()) return;
-      EXPECT_EQ((*f)->data[0], received.load()) << "frames arrive in the order sent";
-      last_arrival = SteadyTime::now();
-      ++received;
+      EXPECT_EQ((*f)->data[0], arrivals.size()) << "frames arrive in the order sent";
+      arrivals.push_back(SteadyTime::now());
     }
   });
   const auto t0 = SteadyTime::now();
-  SteadyTime::duration scheduled{};
+  SteadyTime::duration before{};
+  std::vector<SteadyTime::duration> ends;
   for (const CanFrame& f : frames) {
-    scheduled += Ticks(CanBitTime(CanFrameBits(f), 125000));
     ASSERT_TRUE((*tx)->Send(f).ok());
-    EXPECT_GE(SteadyTime::now() - t0, scheduled);
+    EXPECT_GE(SteadyTime::now() - t0, before);
+    before += Ticks(CanBitTime(CanFrameBits(f), 125000));
+    ends.push_back(before);
   }
   reader.join();
-  ASSERT_EQ(received, kFrames);
-  EXPECT_GE(last_arrival - t0, scheduled);
+  ASSERT_EQ(arrivals.size(), static_cast<size_t>(kFrames));
+  for (int i = 0; i < kFrames; ++i) EXPECT_GE(arrivals[i] - t0, ends[i]) << i;
   // 40 frames of 111..135 bits at 125 kbit/s: at least 35 ms, what an unpaced bus never takes.
-  EXPECT_GE(scheduled, std::chrono::milliseconds(35));
+  EXPECT_GE(ends.back(), std::chrono::milliseconds(35));
 }
 
-// Two threads share one node's transmitter: their frames queue, never overlap.
+// A frame whose timestamp lies in the past (python-can stamps the send time) is handed over at
+// once; one announced far in the future is held at most one longest frame, not until then.
+TEST(UdpMulticastChannelPacing, ForeignTimestamps_PastAtOnceFutureBounded) {
+  const uint16_t port = UniquePort();
+  auto rx = UdpMulticastChannel::Open(Bus(port, 125000));
+  ASSERT_TRUE(rx.ok());
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(port);
+  ::inet_pton(AF_INET, kTestGroup, &to.sin_addr);
+  const double now_s =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  for (double ts : {1.0, now_s + 3600}) {
+    const std::vector<uint8_t> bytes = EncodePythonCanMessage(Data(0x55, {1}), ts);
+    ASSERT_EQ(
+        ::sendto(fd, bytes.data(), bytes.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof(to)),
+        static_cast<ssize_t>(bytes.size()));
+    auto got = (*rx)->Receive(std::chrono::seconds(5));
+    ASSERT_TRUE(got.ok() && got->has_value()) << ts;
+    EXPECT_EQ((*got)->id, 0x55u);
+  }
+  ::close(fd);
+}
+
 TEST(UdpMulticastChannelPacing, ConcurrentSenders_ShareOneTransmitQueue) {
   const uint16_t port = UniquePort();
   auto tx = UdpMulticastChannel::Open(Bus(port, 250000));
@@ -176,7 +218,9 @@ TEST(UdpMulticastChannelPacing, ConcurrentSenders_ShareOneTransmitQueue) {
   std::thread a(send), b(send);
   a.join();
   b.join();
-  EXPECT_GE(SteadyTime::now() - t0, 2 * kPerThread * Ticks(CanBitTime(CanFrameBits(f), 250000)));
+  // The last Send returns when its frame starts, after all the others ended.
+  EXPECT_GE(SteadyTime::now() - t0,
+            (2 * kPerThread - 1) * Ticks(CanBitTime(CanFrameBits(f), 250000)));
   EXPECT_EQ((*tx)->counters().tx, 2u * kPerThread);
 }
 
