@@ -397,6 +397,7 @@ void AuditLog::CommitBatch(const std::vector<Pending*>& batch) {
     last_id_ = std::max(last_id_, last_id);
     ++stats_.transactions;
     stats_.entries += static_cast<int64_t>(batch.size());
+    stats_.max_batch = std::max(stats_.max_batch, static_cast<int64_t>(batch.size()));
   }
   appended_.notify_all();
 }

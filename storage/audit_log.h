@@ -94,6 +94,7 @@ struct AuditLink {
 struct AuditCommitStats {
   int64_t transactions = 0;  // committed append transactions
   int64_t entries = 0;       // caller entries they held (anchors and warnings not counted)
+  int64_t max_batch = 0;     // most caller entries in one transaction (<= AuditLog::kMaxBatch)
 };
 
 class AuditLog {
