@@ -36,11 +36,10 @@ Endpoint FromSockaddr(const sockaddr_in& sa) {
   return Endpoint{ntohl(sa.sin_addr.s_addr), ntohs(sa.sin_port)};
 }
 
-// poll() takes milliseconds: round up so a 100 µs time-out does not become a busy 0.
-int PollMillis(Clock::duration remaining) {
-  if (remaining <= Clock::duration::zero()) return 0;
-  const auto ms = std::chrono::ceil<std::chrono::milliseconds>(remaining).count();
-  return ms > 1'000'000'000 ? 1'000'000'000 : static_cast<int>(ms);
+timespec ToTimespec(Clock::duration remaining) {
+  if (remaining <= Clock::duration::zero()) return timespec{0, 0};
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(remaining).count();
+  return timespec{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
 }
 
 }  // namespace
@@ -139,7 +138,7 @@ absl::Status UdpSocket::SendTo(const Endpoint& to, std::span<const uint8_t> byte
   }
 }
 
-absl::StatusOr<std::optional<Datagram>> UdpSocket::Receive(std::chrono::nanoseconds timeout) {
+absl::StatusOr<UdpSocket::WaitResult> UdpSocket::WaitReadable(std::chrono::nanoseconds timeout) {
   // Clamped so that now + timeout cannot overflow (nanoseconds::max() means "a long time").
   const auto wait = std::clamp(timeout, std::chrono::nanoseconds::zero(),
                                std::chrono::nanoseconds(std::chrono::hours(24 * 365)));
@@ -150,7 +149,10 @@ absl::StatusOr<std::optional<Datagram>> UdpSocket::Receive(std::chrono::nanoseco
       return absl::CancelledError(absl::StrCat("udp ", local_.ToString(), ": socket shut down"));
     }
     std::array<pollfd, 2> fds{{{fd_, POLLIN, 0}, {wake_fd_, POLLIN, 0}}};
-    const int ready = ::poll(fds.data(), fds.size(), PollMillis(deadline - Clock::now()));
+    // ppoll, not poll: a cyclic exchange at 1-2 ms cannot live with poll()'s whole milliseconds
+    // (rounded up, every wait overslept by up to 1 ms; issue 10, P2).
+    const timespec ts = ToTimespec(deadline - Clock::now());
+    const int ready = ::ppoll(fds.data(), fds.size(), &ts, nullptr);
     if (ready < 0) {
       if (errno == EINTR) continue;  // restart with the remaining time
       const int err = errno;
@@ -162,35 +164,128 @@ absl::StatusOr<std::optional<Datagram>> UdpSocket::Receive(std::chrono::nanoseco
       if (is_shut_down()) continue;  // reported above; the eventfd stays readable for others
       uint64_t value = 0;
       // Consume the wake-up; a concurrent receiver may have taken it first (EAGAIN).
-      if (::read(wake_fd_, &value, sizeof(value)) == sizeof(value)) return std::nullopt;
+      if (::read(wake_fd_, &value, sizeof(value)) == sizeof(value)) return WaitResult::kWoken;
     }
-    if (fds[0].revents & (POLLIN | POLLERR)) {
-      // Stack buffer: receivers on several threads must not share one.
-      std::array<uint8_t, kMaxDatagramSize> buffer;
-      sockaddr_in from{};
-      socklen_t from_len = sizeof(from);
-      const ssize_t n = ::recvfrom(fd_, buffer.data(), buffer.size(), MSG_TRUNC,
-                                   reinterpret_cast<sockaddr*>(&from), &from_len);
-      if (n >= 0) {
-        size_t size = static_cast<size_t>(n);
-        if (size > buffer.size()) {
-          truncated_.fetch_add(1, std::memory_order_relaxed);
-          size = buffer.size();
-        }
-        received_.fetch_add(1, std::memory_order_relaxed);
-        return Datagram{FromSockaddr(from),
-                        std::vector<uint8_t>(buffer.begin(), buffer.begin() + size)};
+    if (fds[0].revents & (POLLIN | POLLERR)) return WaitResult::kReadable;
+    if (Clock::now() >= deadline) return WaitResult::kTimedOut;
+  }
+}
+
+absl::StatusOr<std::optional<Datagram>> UdpSocket::Receive(std::chrono::nanoseconds timeout) {
+  const auto wait = std::clamp(timeout, std::chrono::nanoseconds::zero(),
+                               std::chrono::nanoseconds(std::chrono::hours(24 * 365)));
+  const Clock::time_point deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(wait);
+  for (;;) {
+    absl::StatusOr<WaitResult> w = WaitReadable(deadline - Clock::now());
+    if (!w.ok()) return w.status();
+    if (*w != WaitResult::kReadable) return std::nullopt;
+    // Stack buffer: receivers on several threads must not share one.
+    std::array<uint8_t, kMaxDatagramSize> buffer;
+    sockaddr_in from{};
+    socklen_t from_len = sizeof(from);
+    const ssize_t n = ::recvfrom(fd_, buffer.data(), buffer.size(), MSG_TRUNC,
+                                 reinterpret_cast<sockaddr*>(&from), &from_len);
+    if (n >= 0) {
+      size_t size = static_cast<size_t>(n);
+      if (size > buffer.size()) {
+        truncated_.fetch_add(1, std::memory_order_relaxed);
+        size = buffer.size();
       }
-      const int err = errno;
-      // EAGAIN: another receiver took it; ECONNREFUSED: ICMP for an earlier send, not fatal.
-      if (err != EAGAIN && err != EWOULDBLOCK && err != EINTR && err != ECONNREFUSED) {
-        receive_errors_.fetch_add(1, std::memory_order_relaxed);
-        return absl::InternalError(
-            absl::StrCat("udp ", local_.ToString(), ": recvfrom: ", ErrnoText(err)));
-      }
+      received_.fetch_add(1, std::memory_order_relaxed);
+      return Datagram{FromSockaddr(from),
+                      std::vector<uint8_t>(buffer.begin(), buffer.begin() + size)};
+    }
+    const int err = errno;
+    // EAGAIN: another receiver took it; ECONNREFUSED: ICMP for an earlier send, not fatal.
+    if (err != EAGAIN && err != EWOULDBLOCK && err != EINTR && err != ECONNREFUSED) {
+      receive_errors_.fetch_add(1, std::memory_order_relaxed);
+      return absl::InternalError(
+          absl::StrCat("udp ", local_.ToString(), ": recvfrom: ", ErrnoText(err)));
     }
     if (Clock::now() >= deadline) return std::nullopt;
   }
+}
+
+absl::StatusOr<size_t> UdpSocket::ReceiveBatch(std::span<DatagramSlot> slots,
+                                               std::chrono::nanoseconds timeout) {
+  if (slots.empty()) return 0;
+  absl::StatusOr<WaitResult> w = WaitReadable(timeout);
+  if (!w.ok()) return w.status();
+  if (*w != WaitResult::kReadable) return 0;
+  std::array<mmsghdr, kMaxBatch> msgs{};
+  std::array<iovec, kMaxBatch> iov{};
+  std::array<sockaddr_in, kMaxBatch> from{};
+  const size_t n = std::min(slots.size(), kMaxBatch);
+  for (size_t i = 0; i < n; ++i) {
+    iov[i] = {slots[i].buffer.data(), slots[i].buffer.size()};
+    msgs[i].msg_hdr.msg_iov = &iov[i];
+    msgs[i].msg_hdr.msg_iovlen = 1;
+    msgs[i].msg_hdr.msg_name = &from[i];
+    msgs[i].msg_hdr.msg_namelen = sizeof(sockaddr_in);
+  }
+  for (;;) {
+    const int got = ::recvmmsg(fd_, msgs.data(), static_cast<unsigned>(n), MSG_DONTWAIT, nullptr);
+    if (got >= 0) {
+      uint64_t truncated = 0;
+      for (size_t i = 0; i < static_cast<size_t>(got); ++i) {
+        DatagramSlot& s = slots[i];
+        s.from = FromSockaddr(from[i]);
+        s.truncated = (msgs[i].msg_hdr.msg_flags & MSG_TRUNC) != 0;
+        s.size = std::min<size_t>(msgs[i].msg_len, s.buffer.size());
+        truncated += s.truncated ? 1 : 0;
+      }
+      received_.fetch_add(static_cast<uint64_t>(got), std::memory_order_relaxed);
+      if (truncated != 0) truncated_.fetch_add(truncated, std::memory_order_relaxed);
+      return static_cast<size_t>(got);
+    }
+    const int err = errno;
+    if (err == EINTR) continue;
+    // EAGAIN: another receiver took it; ECONNREFUSED: ICMP for an earlier send, not fatal.
+    if (err == EAGAIN || err == EWOULDBLOCK || err == ECONNREFUSED) return 0;
+    receive_errors_.fetch_add(1, std::memory_order_relaxed);
+    return absl::InternalError(
+        absl::StrCat("udp ", local_.ToString(), ": recvmmsg: ", ErrnoText(err)));
+  }
+}
+
+absl::StatusOr<size_t> UdpSocket::SendBatch(std::span<const OutgoingDatagram> out,
+                                            std::vector<size_t>* failed) {
+  if (is_shut_down() || fd_ < 0) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("udp ", local_.ToString(), ": socket shut down"));
+  }
+  std::array<mmsghdr, kMaxBatch> msgs{};
+  std::array<iovec, kMaxBatch> iov{};
+  std::array<sockaddr_in, kMaxBatch> to{};
+  size_t sent = 0;
+  size_t next = 0;
+  while (next < out.size()) {
+    const size_t n = std::min(out.size() - next, kMaxBatch);
+    for (size_t i = 0; i < n; ++i) {
+      const OutgoingDatagram& d = out[next + i];
+      to[i] = ToSockaddr(d.to);
+      iov[i] = {const_cast<uint8_t*>(d.bytes.data()), d.bytes.size()};
+      msgs[i] = {};
+      msgs[i].msg_hdr.msg_iov = &iov[i];
+      msgs[i].msg_hdr.msg_iovlen = 1;
+      msgs[i].msg_hdr.msg_name = &to[i];
+      msgs[i].msg_hdr.msg_namelen = sizeof(sockaddr_in);
+    }
+    const int got = ::sendmmsg(fd_, msgs.data(), static_cast<unsigned>(n), MSG_NOSIGNAL);
+    if (got > 0) {
+      sent += static_cast<size_t>(got);
+      next += static_cast<size_t>(got);
+      continue;
+    }
+    if (got < 0 && errno == EINTR) continue;
+    // The first datagram of the rest was refused (e.g. a full buffer): count it, go on.
+    send_errors_.fetch_add(1, std::memory_order_relaxed);
+    if (failed != nullptr) failed->push_back(next);
+    ++next;
+  }
+  sent_.fetch_add(sent, std::memory_order_relaxed);
+  return sent;
 }
 
 void UdpSocket::Wake() {

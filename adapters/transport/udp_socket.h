@@ -20,6 +20,21 @@ struct Datagram {
   std::vector<uint8_t> bytes;
 };
 
+// One slot of a batch receive (UdpSocket::ReceiveBatch): the caller owns `buffer`, so that a
+// receive loop allocates nothing per datagram.
+struct DatagramSlot {
+  std::span<uint8_t> buffer;  // where the payload goes
+  Endpoint from;              // filled by ReceiveBatch
+  size_t size = 0;            // payload bytes stored in buffer (cut to buffer.size())
+  bool truncated = false;     // the datagram was longer than buffer
+};
+
+// One datagram of a batch send (UdpSocket::SendBatch).
+struct OutgoingDatagram {
+  Endpoint to;
+  std::span<const uint8_t> bytes;
+};
+
 struct UdpSocketCounters {
   uint64_t sent = 0;            // datagrams handed to the kernel
   uint64_t received = 0;        // datagrams returned by Receive
@@ -34,6 +49,7 @@ struct UdpSocketCounters {
 class UdpSocket {
  public:
   static constexpr size_t kMaxDatagramSize = 65507;  // largest IPv4 UDP payload
+  static constexpr size_t kMaxBatch = 64;            // datagrams per recvmmsg/sendmmsg call
 
   struct BindOptions {
     // SO_REUSEADDR. On Linux this lets a second UDP socket bind the very same address while
@@ -67,6 +83,19 @@ class UdpSocket {
   // EINTR restarts the wait with the remaining time.
   absl::StatusOr<std::optional<Datagram>> Receive(std::chrono::nanoseconds timeout);
 
+  // Allocation-free batch receive for a single-reader loop: waits like Receive (up to `timeout`,
+  // Wake ends the wait), then takes every datagram already queued, up to slots.size(), with one
+  // recvmmsg(2). Returns how many slots were filled: 0 on time-out or wake-up. CancelledError
+  // once Shutdown() was called; Internal for socket errors.
+  absl::StatusOr<size_t> ReceiveBatch(std::span<DatagramSlot> slots,
+                                      std::chrono::nanoseconds timeout);
+
+  // Sends every datagram with as few sendmmsg(2) calls as the kernel allows. Returns how many
+  // were sent; `failed`, when given, receives the index of each one the kernel refused (counted
+  // like SendTo errors; the others are still sent). FailedPrecondition after Shutdown.
+  absl::StatusOr<size_t> SendBatch(std::span<const OutgoingDatagram> out,
+                                   std::vector<size_t>* failed = nullptr);
+
   // Makes one blocked (or the next) Receive return nullopt at once. Thread-safe.
   void Wake();
   // Releases every blocked Receive for good: Receive and SendTo fail from now on. Idempotent,
@@ -79,6 +108,10 @@ class UdpSocket {
  private:
   UdpSocket(int fd, int wake_fd, Endpoint local) : fd_(fd), wake_fd_(wake_fd), local_(local) {}
   void Close();
+  // poll() on the socket and the wake-up eventfd with nanosecond resolution (ppoll), restarting
+  // on EINTR: kReadable, kWoken, kTimedOut; CancelledError after Shutdown.
+  enum class WaitResult { kReadable, kWoken, kTimedOut };
+  absl::StatusOr<WaitResult> WaitReadable(std::chrono::nanoseconds timeout);
 
   int fd_ = -1;
   int wake_fd_ = -1;  // eventfd: readable while a wake-up is pending

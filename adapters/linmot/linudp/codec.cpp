@@ -245,27 +245,40 @@ uint32_t RequestDefinitionOf(const Request& request) {
   return def;
 }
 
-std::vector<uint8_t> EncodeRequest(const Request& request) {
-  const uint32_t req_def = RequestDefinitionOf(request);
-  std::vector<uint8_t> out;
-  out.reserve(RequestLayoutSize(req_def));
-  PutU32(out, req_def);
+size_t EncodeRequestInto(const Request& request, std::span<uint8_t, kMaxRequestSize> out) {
+  uint8_t* p = out.data();
+  auto u16 = [&p](uint16_t v) {
+    *p++ = static_cast<uint8_t>(v);
+    *p++ = static_cast<uint8_t>(v >> 8);
+  };
+  auto u32 = [&u16](uint32_t v) {
+    u16(static_cast<uint16_t>(v));
+    u16(static_cast<uint16_t>(v >> 16));
+  };
+  u32(RequestDefinitionOf(request));
   // linmot-linudp.md A-03: the gateway never sets response bits 9-31.
-  PutU32(out, request.response_definition & kRespDefinedMask);
-  if (request.control_word) PutU16(out, *request.control_word);
+  u32(request.response_definition & kRespDefinedMask);
+  if (request.control_word) u16(*request.control_word);
   // always the complete 32-byte MC block.
   if (request.motion_command) {
-    out.insert(out.end(), request.motion_command->begin(), request.motion_command->end());
+    std::copy(request.motion_command->begin(), request.motion_command->end(), p);
+    p += kMotionCommandSize;
   }
   if (request.rtc) {
     // §3.5: byte 0 bits 7-4 reserved (0), byte 1 command ID, then words 2-4.
-    out.push_back(request.rtc->count & 0x0F);
-    out.push_back(request.rtc->command_id);
-    PutU16(out, request.rtc->word2);
-    PutU16(out, request.rtc->word3);
-    PutU16(out, request.rtc->word4);
+    *p++ = request.rtc->count & 0x0F;
+    *p++ = request.rtc->command_id;
+    u16(request.rtc->word2);
+    u16(request.rtc->word3);
+    u16(request.rtc->word4);
   }
-  return out;
+  return static_cast<size_t>(p - out.data());
+}
+
+std::vector<uint8_t> EncodeRequest(const Request& request) {
+  std::array<uint8_t, kMaxRequestSize> buffer;
+  const size_t n = EncodeRequestInto(request, buffer);
+  return std::vector<uint8_t>(buffer.begin(), buffer.begin() + n);
 }
 
 absl::StatusOr<Request> DecodeRequest(std::span<const uint8_t> bytes) {

@@ -207,6 +207,12 @@ uint32_t RequestDefinitionOf(const Request& request);
 // job (A-05, docs/decisions/201-linudp-codec-boundaries.md).
 std::vector<uint8_t> EncodeRequest(const Request& request);
 
+// The same bytes into a caller's buffer, for the session's allocation-free cycle (issue 10,
+// P2); returns the telegram length.
+inline constexpr size_t kMaxRequestSize =
+    kHeaderSize + kControlWordSize + kMotionCommandSize + kRtcRequestSize;
+size_t EncodeRequestInto(const Request& request, std::span<uint8_t, kMaxRequestSize> out);
+
 // Simulated-drive side. Masks reserved bits of both definitions. InvalidArgument when
 // the datagram is shorter than the header or than header + flagged blocks, naming the
 // required and actual lengths; bytes beyond the layout are ignored.

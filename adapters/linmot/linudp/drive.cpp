@@ -265,7 +265,7 @@ bool LinMotUdpDrive::HasUrgentRequest() noexcept {
 
 void LinMotUdpDrive::MarkUrgentLocked() {
   urgent_ = true;
-  if (session_) session_->Expedite();
+  if (session_) session_->Expedite(peer_id_);
 }
 
 void LinMotUdpDrive::OnReply(const Reply& reply, TimePoint received) noexcept {

@@ -3,6 +3,7 @@
 // Bytes <-> structs stay in codec.h; what goes into a telegram is the peer's job.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -13,6 +14,7 @@
 #include <string>
 #include <thread>
 #include <unordered_map>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "adapters/core/clock.h"
@@ -102,10 +104,11 @@ class Session {
   // are ignored.
   void Unregister(PeerId id);
 
-  // Wakes the I/O thread so that a peer's urgent request leaves without waiting for its cycle
-  // (still one outstanding request per drive, A-07). Lock-free: callable from any thread,
-  // with any lock held.
-  void Expedite() { socket_.Wake(); }
+  // Wakes the I/O thread so that peer `id`'s urgent request leaves without waiting for its cycle
+  // (still one outstanding request per drive, A-07): the peer is asked HasUrgentRequest at once
+  // if it is idle, else on its reply. Callable from any thread with any lock held (it takes only
+  // a leaf lock of its own).
+  void Expedite(PeerId id);
 
   // Stops the I/O thread (wakes it and joins) and shuts the socket; idempotent, also done by the
   // destructor. Peers get no further callbacks.
@@ -120,6 +123,7 @@ class Session {
 
  private:
   struct Peer {
+    PeerId id = 0;
     PeerOptions options;
     SessionPeer* peer = nullptr;
     ExchangeCounters counters;
@@ -128,18 +132,45 @@ class Session {
     bool outstanding = false;
     uint32_t asked_response = 0;  // response definition of the outstanding request
     uint32_t sent_request = 0;    // request definition of the outstanding request
-    TimePoint next_send{};
+    TimePoint next_send{};        // start of the next cycle period: the next cyclic telegram
     TimePoint reply_deadline{};
     TimePoint sent_at{};       // when the outstanding (or last) request left
     TimePoint period_start{};  // start of the current cycle period (fixed grid)
     bool period_met = false;   // the current period saw a completed exchange
+    // The one live entry of this peer in timers_ (older entries carry an older seq).
+    bool armed = false;
+    TimePoint armed_due{};
+    uint64_t timer_seq = 0;
   };
+  // Min-heap entry: the next moment peer `id` needs the I/O thread (send due or reply deadline).
+  struct Timer {
+    TimePoint due;
+    PeerId id;
+    uint64_t seq;
+  };
+  // One encoded telegram waiting for the batch send at the end of this turn of the loop.
+  struct Outgoing {
+    Peer* peer;
+    size_t size;
+    std::array<uint8_t, kMaxRequestSize> bytes;
+  };
+  static constexpr size_t kReceiveSlotSize = 512;  // LinUDP replies are <= 64 bytes
 
   Session(transport::UdpSocket socket, const Clock& clock);
   void Run();
-  // Sends what is due and handles expired requests; returns how long the loop may wait.
-  Duration ServiceLocked(TimePoint now);
-  void HandleDatagramLocked(const transport::Datagram& d, TimePoint now);
+  // Pops every timer due by `now`: time-outs and cyclic sends.
+  void FireTimersLocked(TimePoint now);
+  // Sends for the peers Expedite named (or on their reply while a request is outstanding).
+  void TakeUrgentLocked(TimePoint now);
+  // Time-out handling and, when due, the next telegram of `p`; then re-arms its timer.
+  void ServicePeerLocked(Peer& p, TimePoint now);
+  // Builds and encodes p's next telegram into the send batch (A-07: p must be idle).
+  void QueueSendLocked(Peer& p, TimePoint now);
+  // Hands the batch to the socket (sendmmsg) and counts refused telegrams.
+  void FlushLocked();
+  // Keeps exactly one live timer for `p` at its next due moment.
+  void ArmLocked(Peer& p, TimePoint now);
+  void HandleDatagramLocked(const transport::DatagramSlot& d, TimePoint now);
   void SetLinkLocked(Peer& p, LinkState to);
   // Closes the cycle periods of `p` that ended by `now` (ExchangeCounters::cycles/late_cycles).
   static void RollPeriodsLocked(Peer& p, TimePoint now);
@@ -147,13 +178,25 @@ class Session {
   const Clock& clock_;
   transport::UdpSocket socket_;
   const transport::Endpoint local_;
+  const TimePoint epoch_;  // grid origin: every peer's periods start on a kGridTick boundary
   mutable std::mutex mu_;  // registrations, peer state, counters; held during peer callbacks
   bool stopping_ = false;
   PeerId next_id_ = 1;
-  std::map<PeerId, Peer> peers_;
-  std::unordered_map<transport::Endpoint, PeerId> by_remote_;
+  std::map<PeerId, Peer> peers_;  // node-based: Peer addresses stay valid until erased
+  std::unordered_map<transport::Endpoint, Peer*> by_remote_;
+  std::vector<Timer> timers_;  // min-heap on due, guarded by mu_
   SessionCounters counters_;
-  std::mutex stop_mu_;  // serialises Stop() callers around the join
+  // I/O thread buffers, reused every turn (guarded by mu_; the cycle allocates nothing).
+  std::vector<Outgoing> outgoing_;
+  std::vector<transport::OutgoingDatagram> outgoing_views_;
+  std::vector<size_t> send_failed_;
+  std::vector<std::array<uint8_t, kReceiveSlotSize>> receive_buffers_;
+  std::vector<transport::DatagramSlot> receive_slots_;
+  std::vector<PeerId> urgent_taken_;
+  // Expedite's queue: a leaf lock, never held while calling a peer (lock order mu_ -> urgent_mu_).
+  std::mutex urgent_mu_;
+  std::vector<PeerId> urgent_;  // guarded by urgent_mu_
+  std::mutex stop_mu_;          // serialises Stop() callers around the join
   std::thread thread_;
 };
 
