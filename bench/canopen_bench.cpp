@@ -7,6 +7,9 @@
 //  (c) frames per MoveAbsolute through the STOBER drive (factory + Drive API), counted on a
 //      sniffer channel from the API call to the TPDO1 carrying Done, against the minimum
 //      (2 RPDO1 frames, decision 1175, plus the TPDOs the status needs).
+// Issue 10 P3: (c) runs on the bus paced at 500 kbit/s (decision 805) and reports frames per
+// MoveAbsolute against that minimum; (d) expedited SDO uploads on the paced bus against the
+// theoretical rate, bit rate / bits of the request and response frames.
 // Every baseline is measured in the same run; nothing is asserted on time.
 // Run: build/bench/canopen_bench [seconds per scenario, default 2]
 #include <unistd.h>
@@ -34,7 +37,9 @@
 #include "adapters/stober/factory.h"
 #include "adapters/stober/object_map.h"
 #include "adapters/stober/param_id.h"
+#include "adapters/transport/can_bit_timing.h"
 #include "adapters/transport/can_channel.h"
+#include "bench/report.h"
 #include "sim/canopen/device_model.h"
 #include "sim/canopen/node.h"
 #include "sim/canopen/object_dictionary.h"
@@ -56,11 +61,16 @@ constexpr int kRounds = 3;
 // Up to ~50 buses per run: a block of 64 ports per process.
 uint16_t Port(int n) { return static_cast<uint16_t>(20000 + (::getpid() * 64 + n) % 40000); }
 
-drivegw::CanBusConfig Bus(uint16_t port) {
+// CANopen's usual bit rate for motion (CiA 301 allows 10k..1M); decision 805 paces each node.
+constexpr uint32_t kPacedBitrate = 500000;
+
+// `bitrate` 0: unpaced.
+drivegw::CanBusConfig Bus(uint16_t port, uint32_t bitrate = 0) {
   drivegw::CanBusConfig bus;
   bus.kind = drivegw::CanBusConfig::Kind::kUdpMulticast;
   bus.group = kGroup;
   bus.port = port;
+  bus.bitrate = bitrate;
   return bus;
 }
 
@@ -103,9 +113,9 @@ double LoadAverage() {
 
 // Baseline: a bare request/response pair of single 8-byte frames between two channels on the
 // bus (no CANopen stack, no simulated device): exchanges per second.
-double PingPong(uint16_t port, double seconds) {
-  auto a = Must(drivegw::transport::OpenCanChannel(Bus(port)), "open ping channel");
-  auto b = Must(drivegw::transport::OpenCanChannel(Bus(port)), "open pong channel");
+double PingPong(uint16_t port, double seconds, uint32_t bitrate = 0) {
+  auto a = Must(drivegw::transport::OpenCanChannel(Bus(port, bitrate)), "open ping channel");
+  auto b = Must(drivegw::transport::OpenCanChannel(Bus(port, bitrate)), "open pong channel");
   const std::vector<uint8_t> payload(8, 0x40);
   std::atomic<bool> running{true};
   std::thread echo([&] {
@@ -163,33 +173,37 @@ struct SdoResult {
   double per_s = 0;
   uint64_t failures = 0;
   size_t size = 0;
+  std::vector<uint8_t> uploaded;  // the value the first upload returned
+  double p50_us = 0;              // median transfer time
 };
 
-SdoResult RunSdo(uint16_t port, const SdoCase& c, double seconds) {
+SdoResult RunSdo(uint16_t port, const SdoCase& c, double seconds, uint32_t bitrate = 0) {
   std::unique_ptr<drivegw::sim::stober::AxisServer> axis;
   std::unique_ptr<drivegw::sim::canopen::SlaveServer> slave;
   BufferModel model;
   if (c.generic_slave) {
     drivegw::sim::canopen::SlaveServerOptions o;
     o.node.node_id = kNode;
-    o.can = Bus(port);
+    o.can = Bus(port, bitrate);
     slave =
         Must(drivegw::sim::canopen::SlaveServer::Start(o, drivegw::SteadyClock::Instance(), &model),
              "generic slave");
   } else {
     drivegw::sim::stober::AxisServerOptions o;
     o.node_id = kNode;
-    o.can = Bus(port);
+    o.can = Bus(port, bitrate);
     axis = Must(drivegw::sim::stober::AxisServer::Start(o, drivegw::SteadyClock::Instance()),
                 "simulated axis");
   }
-  auto master = Must(co::CanopenMaster::Open(Bus(port)), "master");
+  auto master = Must(co::CanopenMaster::Open(Bus(port, bitrate)), "master");
+  SdoResult r;
   auto one = [&]() -> absl::StatusOr<size_t> {
     const drivegw::TimePoint deadline = drivegw::SteadyClock::Instance().Now() + 2s;
     if (c.upload) {
-      auto r = master->Upload(kNode, c.index, c.sub, deadline);
-      if (!r.ok()) return r.status();
-      return r->size();
+      auto u = master->Upload(kNode, c.index, c.sub, deadline);
+      if (!u.ok()) return u.status();
+      if (r.uploaded.empty()) r.uploaded = *u;
+      return u->size();
     }
     absl::Status s = master->Download(kNode, c.index, c.sub, c.data, deadline);
     if (!s.ok()) return s;
@@ -204,19 +218,22 @@ SdoResult RunSdo(uint16_t port, const SdoCase& c, double seconds) {
       Die("fill the bench buffer", s);
     }
   }
-  SdoResult r;
   r.size = Must(one(), c.name);
   uint64_t n = 0;
+  std::vector<double> each_us;
   const auto t0 = SteadyTime::now();
   const auto end = t0 + Seconds(seconds);
   while (SteadyTime::now() < end) {
+    const auto q0 = SteadyTime::now();
     if (one().ok()) {
       ++n;
+      each_us.push_back(std::chrono::duration<double, std::micro>(SteadyTime::now() - q0).count());
     } else {
       ++r.failures;
     }
   }
   r.per_s = static_cast<double>(n) / std::chrono::duration<double>(SteadyTime::now() - t0).count();
+  r.p50_us = Median(each_us);
   master->Stop();
   if (axis) axis->Stop();
   if (slave) slave->Stop();
@@ -494,14 +511,14 @@ void BenchMoves(int moves, int& port) {
   const uint16_t p = Port(++port);
   drivegw::sim::stober::AxisServerOptions so;
   so.node_id = kNode;
-  so.can = Bus(p);
+  so.can = Bus(p, kPacedBitrate);
   auto axis = Must(drivegw::sim::stober::AxisServer::Start(so, drivegw::SteadyClock::Instance()),
                    "simulated axis");
   Sniffer sniffer(p);
   drivegw::DriveConfig c;
   c.name = "bench";
   c.family = st::kFamilyName;
-  c.can = Bus(p);
+  c.can = Bus(p, kPacedBitrate);
   c.node_id = kNode;
   c.axis.min_mm = -200;
   c.axis.max_mm = 200;
@@ -567,8 +584,9 @@ void BenchMoves(int moves, int& port) {
   axis->Stop();
 
   std::printf(
-      "(c) frames per MoveAbsolute (20 mm moves), from the API call to the TPDO1 with Done, "
-      "medians\n");
+      "(c) frames per MoveAbsolute (20 mm moves, bus paced at %u bit/s), from the API call to the "
+      "TPDO1\nwith Done, medians\n",
+      kPacedBitrate);
   std::printf("%-22s %4s %5s %6s %6s %6s %9s %5s %4s %4s %7s\n", "dynamics", "n", "RPDO", "TPDO1",
               "(rep)", "TPDO2", "minimum", "SYNC", "HB", "SDO", "ms");
   auto row = [](const char* name, const std::vector<MoveFrames>& v, int minimum_rpdo) {
@@ -602,6 +620,129 @@ void BenchMoves(int moves, int& port) {
       "RPDO3\nwhen the dynamics change), TPDO1 accepted + TPDO1 Done, one TPDO2 with the final "
       "position.\n(rep): TPDO1 frames repeating the previous one (100 ms event timer). SYNC and "
       "heartbeat (HB)\nframes in the window are counted apart, not in the comparison.\n");
+  // The command's frames are what the operation needs (RPDOs, decision 1175); the feedback
+  // (TPDO1 transitions, TPDO2 at its 10 ms inhibit time while moving) grows with the move's
+  // duration and is reported apart.
+  auto median_of = [](const std::vector<MoveFrames>& v, auto field) {
+    std::vector<double> x;
+    for (const MoveFrames& m : v) x.push_back(static_cast<double>(field(m)));
+    return Median(x);
+  };
+  const auto rpdo = [](const MoveFrames& m) { return m.rpdo; };
+  const auto feedback = [](const MoveFrames& m) { return m.tpdo1 - m.tpdo1_repeats + m.tpdo2; };
+  drivegw::bench::Report(
+      {"P3",
+       "canopen_frames_per_op",
+       median_of(same, rpdo),
+       "frames",
+       "=2",
+       "protocol minimum per MoveAbsolute: 2 RPDO1 frames (Execute edge, Execute low; decision "
+       "1175)",
+       {{"minimum", 2},
+        {"citation",
+         "decision 1175: RPDO1 with the Execute edge + RPDO1 with Execute low; + RPDO2 and RPDO3 "
+         "when velocity/acceleration/deceleration change"},
+        {"moves", same.size()},
+        {"rpdo_max",
+         [&] {
+           uint64_t mx = 0;
+           for (const MoveFrames& m : same) mx = std::max(mx, m.rpdo);
+           return mx;
+         }()},
+        {"changed_dynamics_rpdo", median_of(changed, rpdo)},
+        {"changed_dynamics_minimum", 4},
+        {"sdo_frames", median_of(same, [](const MoveFrames& m) { return m.sdo; })},
+        {"bitrate", kPacedBitrate},
+        {"not_done", failed},
+        {"unseen", unseen}}});
+  drivegw::bench::Report(
+      {"P3",
+       "canopen_feedback_frames_per_op",
+       median_of(same, feedback),
+       "frames",
+       "",
+       "TPDO1 transitions + TPDO2 per 20 mm move; at least 2 TPDO1 (accepted, Done) + 1 TPDO2",
+       {{"minimum", 3},
+        {"tpdo1_distinct",
+         median_of(same, [](const MoveFrames& m) { return m.tpdo1 - m.tpdo1_repeats; })},
+        {"tpdo1_repeats", median_of(same, [](const MoveFrames& m) { return m.tpdo1_repeats; })},
+        {"tpdo2", median_of(same, [](const MoveFrames& m) { return m.tpdo2; })},
+        {"move_ms", median_of(same, [](const MoveFrames& m) { return m.ms; })},
+        {"why",
+         "TPDO2 (position) is published at its 10 ms inhibit time while the axis moves "
+         "(decision 1179): it grows with the move's duration, not with the operation"}}});
+}
+
+// (d) Issue 10 P3: expedited SDO uploads (one request, one response frame) on the bus paced at
+// kPacedBitrate against bit rate / bits per transfer; the same ping-pong paced and unpaced beside
+// it (the bus alone, and the turnaround the theory leaves out).
+void BenchPacedSdo(double seconds, int& port) {
+  const SdoCase c = {"expedited upload 6041h (2 B)", true, 0x6041, 0, {}, false};
+  std::vector<double> paced, unpaced, bare, bare_unpaced, p50;
+  uint64_t failures = 0;
+  std::vector<uint8_t> value;
+  for (int round = 0; round < kRounds; ++round) {
+    SdoResult r = RunSdo(Port(++port), c, seconds / kRounds, kPacedBitrate);
+    paced.push_back(r.per_s);
+    p50.push_back(r.p50_us);
+    failures += r.failures;
+    value = r.uploaded;
+    unpaced.push_back(RunSdo(Port(++port), c, seconds / kRounds).per_s);
+    bare.push_back(PingPong(Port(++port), seconds / kRounds, kPacedBitrate));
+    bare_unpaced.push_back(PingPong(Port(++port), seconds / kRounds));
+  }
+  // CiA 301 §7.2.4.3.3/.6: initiate upload request 40h, response 4Bh (expedited, 2 bytes given),
+  // index little endian, sub-index, data; unused bytes 0.
+  std::vector<uint8_t> request = {0x40, 0x41, 0x60, 0x00, 0, 0, 0, 0};
+  std::vector<uint8_t> response = {0x4B, 0x41, 0x60, 0x00, 0, 0, 0, 0};
+  for (size_t i = 0; i < value.size() && i < 4; ++i) response[4 + i] = value[i];
+  const double bits =
+      drivegw::transport::CanFrameBits(drivegw::transport::MakeCanFrame(0x600 + kNode, request)) +
+      drivegw::transport::CanFrameBits(drivegw::transport::MakeCanFrame(0x580 + kNode, response));
+  const std::vector<uint8_t> ping(8, 0x40);
+  const double bare_bits =
+      drivegw::transport::CanFrameBits(drivegw::transport::MakeCanFrame(0x605, ping)) +
+      drivegw::transport::CanFrameBits(drivegw::transport::MakeCanFrame(0x585, ping));
+  const double rate = Median(paced), theory = kPacedBitrate / bits;
+  const double bare_theory = kPacedBitrate / bare_bits;
+  const double turnaround_us = Median(unpaced) > 0 ? 1e6 / Median(unpaced) : 0;
+  // Typical transfer: theoretical time / the median transfer time (host stalls do not move it).
+  const double ratio_p50 = Median(p50) > 0 ? (1e6 / theory) / Median(p50) : 0;
+  std::printf("\n(d) expedited SDO upload on the bus paced at %u bit/s, %d rounds, medians\n",
+              kPacedBitrate, kRounds);
+  std::printf("%-36s %10s %10s %8s\n", "series", "trans/s", "theory/s", "ratio");
+  std::printf("%-36s %10.0f %10.0f %8.3f  (p50: %.0f us, ratio %.3f)\n", "SDO upload 6041h, paced",
+              rate, theory, rate / theory, Median(p50), ratio_p50);
+  std::printf("%-36s %10.0f %10s %8s\n", "SDO upload 6041h, unpaced", Median(unpaced), "-", "-");
+  std::printf("%-36s %10.0f %10.0f %8.3f\n", "bare ping-pong, paced", Median(bare), bare_theory,
+              Median(bare) / bare_theory);
+  std::printf("%-36s %10.0f %10s %8s\n", "bare ping-pong, unpaced", Median(bare_unpaced), "-", "-");
+  std::printf(
+      "theory/s = bit rate / (request + response bits, exact stuffing: %.0f bits); the unpaced\n"
+      "transfer time (%.0f us) is the turnaround (UDP hops, master and server threads) the theory\n"
+      "leaves out. failures %llu\n",
+      bits, turnaround_us, static_cast<unsigned long long>(failures));
+  drivegw::bench::Report(
+      {"P3",
+       "canopen_ops_per_s_ratio",
+       rate / theory,
+       "ratio",
+       ">=0.95",
+       "theoretical expedited SDO uploads/s = 500000 bit/s / bits per transfer (decision 805)",
+       {{"transfers_per_s", rate},
+        {"ratio_p50", ratio_p50},
+        {"p50_transfer_us", Median(p50)},
+        {"theory_per_s", theory},
+        {"bits_per_transfer", bits},
+        {"bitrate", kPacedBitrate},
+        {"unpaced_transfers_per_s", Median(unpaced)},
+        {"unpaced_transfer_us", turnaround_us},
+        {"theory_with_turnaround_ratio", rate * (bits / kPacedBitrate + turnaround_us * 1e-6)},
+        {"bare_pingpong_per_s", Median(bare)},
+        {"bare_pingpong_ratio", Median(bare) / bare_theory},
+        {"bare_pingpong_unpaced_per_s", Median(bare_unpaced)},
+        {"failures", failures},
+        {"loadavg", LoadAverage()}}});
 }
 
 }  // namespace
@@ -615,6 +756,7 @@ int main(int argc, char** argv) {
   BenchSdo(seconds, port);
   BenchSync(seconds, port);
   BenchMoves(std::max(3, static_cast<int>(seconds * 10)), port);
+  BenchPacedSdo(seconds, port);
   std::printf("\nload average %.2f at the end\n", LoadAverage());
   return 0;
 }
