@@ -13,6 +13,7 @@
 #include "google/protobuf/util/time_util.h"
 #include "server/auth/token_service.h"
 #include "server/config/config.h"
+#include "server/config/env_overrides.h"
 #include "storage/audit_log.h"
 #include "storage/db.h"
 #include "storage/migrations.h"
@@ -99,11 +100,14 @@ int RunTokenCommand(int argc, const char* const* args, std::FILE* out, std::FILE
     std::fprintf(err, "drivegw token: %s\n%s", problem.c_str(), kUsage);
     return 2;
   }
-  absl::StatusOr<config::GatewayConfig> cfg =
-      a.config_path.empty() ? config::ParseConfig("") : config::LoadConfigFile(a.config_path);
+  // The same file and DRIVEGW_* overrides as the gateway (decision 024), so `docker exec gw
+  // drivegw token create ...` works on the container's database without repeating --config.
+  const config::EnvLookup env = config::ProcessEnvironment();
+  const std::string path = config::ResolveConfigPath(a.config_path, env);
+  const std::vector<config::ConfigOverride> overrides = config::OverridesFromEnvironment(env);
+  absl::StatusOr<config::GatewayConfig> cfg = config::LoadGatewayConfig(path, overrides);
   if (!cfg.ok()) {
-    std::fprintf(err, "drivegw token: config %s: %s\n",
-                 a.config_path.empty() ? "(default)" : a.config_path.c_str(),
+    std::fprintf(err, "drivegw token: config %s: %s\n", path.empty() ? "(default)" : path.c_str(),
                  std::string(cfg.status().message()).c_str());
     return 2;
   }
