@@ -31,9 +31,24 @@ struct Sha256::Ctx {
   std::unique_ptr<EVP_MD_CTX, Free> md{EVP_MD_CTX_new()};
 };
 
+namespace {
+
+// Fetched once: with OpenSSL 3, EVP_sha256() makes every EVP_DigestInit_ex look the provider's
+// implementation up again (an implicit fetch under a lock), once per audited command. Kept for
+// the life of the process.
+const EVP_MD* Sha256Md() {
+  static const EVP_MD* const md = [] {
+    const EVP_MD* fetched = EVP_MD_fetch(nullptr, "SHA256", nullptr);
+    return fetched != nullptr ? fetched : EVP_sha256();
+  }();
+  return md;
+}
+
+}  // namespace
+
 Sha256::Sha256() : ctx_(std::make_unique<Ctx>()) {
   // Allocation failure of a 200-byte context: nothing sensible remains but to stop.
-  if (!ctx_->md || EVP_DigestInit_ex(ctx_->md.get(), EVP_sha256(), nullptr) != 1) std::abort();
+  if (!ctx_->md || EVP_DigestInit_ex(ctx_->md.get(), Sha256Md(), nullptr) != 1) std::abort();
 }
 Sha256::~Sha256() = default;
 
