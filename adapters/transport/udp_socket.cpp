@@ -213,6 +213,13 @@ absl::StatusOr<size_t> UdpSocket::ReceiveBatch(std::span<DatagramSlot> slots,
   absl::StatusOr<WaitResult> w = WaitReadable(timeout);
   if (!w.ok()) return w.status();
   if (*w != WaitResult::kReadable) return 0;
+  return TryReceiveBatch(slots);
+}
+
+absl::StatusOr<size_t> UdpSocket::TryReceiveBatch(std::span<DatagramSlot> slots) {
+  if (is_shut_down() || fd_ < 0) {
+    return absl::CancelledError(absl::StrCat("udp ", local_.ToString(), ": socket shut down"));
+  }
   std::array<mmsghdr, kMaxBatch> msgs{};
   std::array<iovec, kMaxBatch> iov{};
   std::array<sockaddr_in, kMaxBatch> from{};

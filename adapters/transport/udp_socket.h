@@ -73,6 +73,8 @@ class UdpSocket {
   // The bound address; the port is the one the kernel chose when Bind was given port 0.
   const Endpoint& local_endpoint() const { return local_; }
   uint16_t local_port() const { return local_.port; }
+  // The descriptor, for an event loop that waits on many sockets (epoll); still owned here.
+  int native_handle() const { return fd_; }
 
   // One datagram to `to`. Unavailable (counted) when the kernel refuses it, e.g. a full buffer;
   // FailedPrecondition after Shutdown.
@@ -89,6 +91,10 @@ class UdpSocket {
   // once Shutdown() was called; Internal for socket errors.
   absl::StatusOr<size_t> ReceiveBatch(std::span<DatagramSlot> slots,
                                       std::chrono::nanoseconds timeout);
+
+  // The same without waiting (for a loop that waits on many sockets itself): one recvmmsg with
+  // MSG_DONTWAIT; 0 when nothing is queued.
+  absl::StatusOr<size_t> TryReceiveBatch(std::span<DatagramSlot> slots);
 
   // Sends every datagram with as few sendmmsg(2) calls as the kernel allows. Returns how many
   // were sent; `failed`, when given, receives the index of each one the kernel refused (counted

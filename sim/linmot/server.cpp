@@ -9,6 +9,7 @@
 #include "adapters/core/log.h"
 #include "adapters/linmot/linudp/codec.h"
 #include "sim/linmot/device.h"
+#include "sim/linmot/io_loop.h"
 
 namespace drivegw::sim::linmot {
 
@@ -24,7 +25,12 @@ absl::StatusOr<std::unique_ptr<LinMotServer>> LinMotServer::Start(const SimOptio
   std::unique_ptr<LinMotServer> server(
       new LinMotServer(options, clock, std::move(*socket), std::move(*device)));
   server->running_ = true;
-  server->thread_ = std::thread([s = server.get()] { s->Run(); });
+  if (absl::Status s = SharedIoLoop::Instance().Add(server->socket_.native_handle(),
+                                                    [p = server.get()] { return p->OnReadable(); });
+      !s.ok()) {
+    server->running_ = false;
+    return s;
+  }
   log::Info("linmot_sim.started",
             log::Fields()
                 .Add("drive", options.name)
@@ -42,41 +48,38 @@ LinMotServer::LinMotServer(const SimOptions& options, const Clock& clock,
       socket_(std::move(socket)),
       local_(socket_.local_endpoint()),
       device_(std::move(device)),
-      last_advance_(clock.Now()) {}
+      last_advance_(clock.Now()) {
+  for (size_t i = 0; i < kReceiveSlots; ++i) receive_slots_[i].buffer = receive_buffers_[i];
+}
 
 LinMotServer::~LinMotServer() { Stop(); }
 
 void LinMotServer::Stop() {
   if (running_.exchange(false)) {
+    SharedIoLoop::Instance().Remove(socket_.native_handle());  // no handler runs after this
     socket_.Shutdown();
-  }
-  if (thread_.joinable()) {
-    thread_.join();
     log::Info("linmot_sim.stopped", log::Fields().Add("drive", options_.name));
   }
 }
 
-void LinMotServer::Run() {
-  while (running_.load()) {
-    Duration wait = std::chrono::milliseconds(50);
-    {
-      std::lock_guard lock(mu_);
-      // Delayed replies are due on the injected clock, which may be a ManualClock: poll it.
-      if (!pending_.empty()) wait = std::chrono::milliseconds(1);
-    }
-    auto received = socket_.Receive(wait);
-    if (!received.ok()) {
-      if (absl::IsCancelled(received.status())) break;
+bool LinMotServer::OnReadable() {
+  std::lock_guard lock(mu_);
+  AdvanceLocked();
+  absl::StatusOr<size_t> received = socket_.TryReceiveBatch(receive_slots_);
+  if (!received.ok()) {
+    if (!absl::IsCancelled(received.status())) {
       log::Warn(
           "linmot_sim.receive_failed",
           log::Fields().Add("drive", options_.name).Add("error", received.status().message()));
-      continue;
     }
-    std::lock_guard lock(mu_);
-    AdvanceLocked();
-    if (received->has_value()) HandleDatagramLocked(**received);
-    FlushDueLocked();
+  } else {
+    for (size_t i = 0; i < *received; ++i) {
+      const transport::DatagramSlot& d = receive_slots_[i];
+      HandleDatagramLocked(d.from, std::span<const uint8_t>(d.buffer.data(), d.size));
+    }
   }
+  FlushDueLocked();
+  return !pending_.empty();
 }
 
 void LinMotServer::AdvanceLocked() {
@@ -87,18 +90,19 @@ void LinMotServer::AdvanceLocked() {
   }
 }
 
-void LinMotServer::HandleDatagramLocked(const transport::Datagram& d) {
+void LinMotServer::HandleDatagramLocked(const transport::Endpoint& from,
+                                        std::span<const uint8_t> bytes) {
   ++counters_.datagrams_received;
   // only the configured master port is answered (0 = any port, tests).
-  if (options_.master_port != 0 && d.from.port != options_.master_port) {
+  if (options_.master_port != 0 && from.port != options_.master_port) {
     ++counters_.dropped_wrong_port;
     return;
   }
   // A-15 master filter.
   if ((options_.master_filter == MasterFilter::kSingleMasterFixIp &&
-       d.from.ipv4 != options_.master_ip) ||
+       from.ipv4 != options_.master_ip) ||
       (options_.master_filter == MasterFilter::kSingleMaster && latched_master_ip_ &&
-       *latched_master_ip_ != d.from.ipv4)) {
+       *latched_master_ip_ != from.ipv4)) {
     ++counters_.dropped_filtered;
     return;
   }
@@ -107,17 +111,17 @@ void LinMotServer::HandleDatagramLocked(const transport::Datagram& d) {
     return;
   }
   // a datagram too short for its flagged blocks is counted and dropped.
-  auto request = linudp::DecodeRequest(d.bytes);
+  auto request = linudp::DecodeRequest(bytes);
   if (!request.ok()) {
     ++counters_.malformed;
     log::Debug("linmot_sim.malformed", log::Fields()
                                            .Add("drive", options_.name)
-                                           .Add("from", d.from.ToString())
+                                           .Add("from", from.ToString())
                                            .Add("error", request.status().message()));
     return;
   }
   if (options_.master_filter == MasterFilter::kSingleMaster && !latched_master_ip_) {
-    latched_master_ip_ = d.from.ipv4;
+    latched_master_ip_ = from.ipv4;
   }
   auto reply = device_->Handle(*request);
   if (!reply) {
@@ -125,8 +129,8 @@ void LinMotServer::HandleDatagramLocked(const transport::Datagram& d) {
     return;
   }
   // the reply goes to <source ip>:<master port>; A-06: zero fill to the minimum payload.
-  const transport::Endpoint to{d.from.ipv4,
-                               options_.master_port != 0 ? options_.master_port : d.from.port};
+  const transport::Endpoint to{from.ipv4,
+                               options_.master_port != 0 ? options_.master_port : from.port};
   QueueReplyLocked(to, linudp::EncodeReply(*reply, options_.min_reply_payload));
 }
 

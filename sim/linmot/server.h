@@ -2,13 +2,14 @@
 // physics advanced to an injected clock on every datagram (never by sleeping), plus fault hooks.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <thread>
+#include <span>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -23,9 +24,10 @@ namespace drivegw::sim::linmot {
 
 class LinMotDevice;
 
-// Thread model: one receive thread owns the socket loop; every public method is thread-safe
-// and serialised with it by one mutex. The device is advanced to clock.Now() in fixed ticks
-// (D-23) whenever a datagram arrives and whenever a test hook or Snapshot() is called.
+// Thread model: the process-wide SharedIoLoop thread (io_loop.h) serves the socket of every
+// server; every public method is thread-safe and serialised with it by one mutex. The device is
+// advanced to clock.Now() in fixed ticks (D-23) whenever a datagram arrives and whenever a test
+// hook or Snapshot() is called.
 class LinMotServer {
  public:
   // Validates the options, creates the device, binds `options.bind` and starts the thread.
@@ -77,9 +79,11 @@ class LinMotServer {
 
   LinMotServer(const SimOptions& options, const Clock& clock, transport::UdpSocket socket,
                std::unique_ptr<LinMotDevice> device);
-  void Run();
+  // SharedIoLoop handler: takes the queued datagrams (one recvmmsg), answers them, sends the
+  // delayed replies that are due. True while delayed replies wait.
+  bool OnReadable();
   void AdvanceLocked();
-  void HandleDatagramLocked(const transport::Datagram& datagram);
+  void HandleDatagramLocked(const transport::Endpoint& from, std::span<const uint8_t> bytes);
   void QueueReplyLocked(const transport::Endpoint& to, std::vector<uint8_t> bytes);
   void FlushDueLocked();
 
@@ -98,8 +102,11 @@ class LinMotServer {
   std::optional<uint32_t> latched_master_ip_;          // guarded by mu_ (A-15 single master)
   std::deque<PendingReply> pending_;                   // guarded by mu_, sorted by due
 
+  static constexpr size_t kReceiveSlots = 8;
+  std::array<std::array<uint8_t, 512>, kReceiveSlots> receive_buffers_{};  // guarded by mu_
+  std::array<transport::DatagramSlot, kReceiveSlots> receive_slots_{};     // guarded by mu_
+
   std::atomic<bool> running_{false};
-  std::thread thread_;
 };
 
 }  // namespace drivegw::sim::linmot
