@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
 #include <future>
 #include <thread>
@@ -318,6 +319,86 @@ TEST(UdpSocket, Destructor_ClosesPortForExclusiveRebind) {
   }
   auto again = UdpSocket::Bind(addr, {.reuse_address = false});
   EXPECT_TRUE(again.ok()) << again.status();
+}
+
+// Issue 10 (P2): one recvmmsg takes every queued datagram into the caller's buffers, with the
+// source of each; longer datagrams are cut and flagged.
+TEST(UdpSocket, ReceiveBatch_TakesQueuedDatagramsIntoCallerBuffers) {
+  UdpSocket a = BindLoopback();
+  UdpSocket b = BindLoopback();
+  UdpSocket rx = BindLoopback();
+  ASSERT_TRUE(a.SendTo(rx.local_endpoint(), Bytes{1, 2, 3}).ok());
+  ASSERT_TRUE(b.SendTo(rx.local_endpoint(), Bytes{4}).ok());
+  ASSERT_TRUE(a.SendTo(rx.local_endpoint(), Bytes(10, 7)).ok());
+  std::array<std::array<uint8_t, 4>, 8> buffers{};
+  std::array<DatagramSlot, 8> slots{};
+  for (size_t i = 0; i < slots.size(); ++i) slots[i].buffer = buffers[i];
+  size_t total = 0;
+  std::vector<std::pair<Endpoint, Bytes>> got;
+  while (total < 3) {
+    auto n = rx.ReceiveBatch(slots, 2s);
+    ASSERT_TRUE(n.ok()) << n.status();
+    ASSERT_GT(*n, 0u) << "time-out with " << total << " of 3 datagrams";
+    for (size_t i = 0; i < *n; ++i) {
+      got.emplace_back(slots[i].from,
+                       Bytes(slots[i].buffer.begin(), slots[i].buffer.begin() + slots[i].size));
+      EXPECT_EQ(slots[i].truncated, slots[i].size == 4 && got.back().second == Bytes(4, 7));
+    }
+    total += *n;
+  }
+  ASSERT_EQ(got.size(), 3u);
+  EXPECT_EQ(got[0], (std::pair{a.local_endpoint(), Bytes{1, 2, 3}}));
+  EXPECT_EQ(got[1], (std::pair{b.local_endpoint(), Bytes{4}}));
+  EXPECT_EQ(got[2], (std::pair{a.local_endpoint(), Bytes(4, 7)}));  // cut to the buffer
+  EXPECT_EQ(rx.counters().received, 3u);
+  EXPECT_EQ(rx.counters().truncated, 1u);
+  // Nothing queued: TryReceiveBatch does not wait.
+  auto none = rx.TryReceiveBatch(slots);
+  ASSERT_TRUE(none.ok());
+  EXPECT_EQ(*none, 0u);
+}
+
+TEST(UdpSocket, ReceiveBatch_WakeEndsTheWaitAndShutdownCancels) {
+  UdpSocket rx = BindLoopback();
+  std::array<uint8_t, 16> buffer{};
+  std::array<DatagramSlot, 1> slots{};
+  slots[0].buffer = buffer;
+  rx.Wake();
+  auto woken = rx.ReceiveBatch(slots, 24h);  // returns at once: a wake-up is pending
+  ASSERT_TRUE(woken.ok());
+  EXPECT_EQ(*woken, 0u);
+  rx.Shutdown();
+  EXPECT_TRUE(absl::IsCancelled(rx.ReceiveBatch(slots, 24h).status()));
+  EXPECT_TRUE(absl::IsCancelled(rx.TryReceiveBatch(slots).status()));
+}
+
+TEST(UdpSocket, SendBatch_EveryDatagramToItsDestination) {
+  UdpSocket tx = BindLoopback();
+  UdpSocket r1 = BindLoopback();
+  UdpSocket r2 = BindLoopback();
+  const Bytes one{1}, two{2, 2};
+  // More than one sendmmsg call's worth, alternating destinations.
+  std::vector<OutgoingDatagram> out;
+  for (size_t i = 0; i < UdpSocket::kMaxBatch + 6; ++i) {
+    out.push_back(i % 2 == 0 ? OutgoingDatagram{r1.local_endpoint(), one}
+                             : OutgoingDatagram{r2.local_endpoint(), two});
+  }
+  std::vector<size_t> failed;
+  auto sent = tx.SendBatch(out, &failed);
+  ASSERT_TRUE(sent.ok()) << sent.status();
+  EXPECT_EQ(*sent, out.size());
+  EXPECT_TRUE(failed.empty());
+  EXPECT_EQ(tx.counters().sent, out.size());
+  for (size_t i = 0; i < out.size() / 2; ++i) {
+    auto d1 = ReceiveOne(r1);
+    auto d2 = ReceiveOne(r2);
+    ASSERT_TRUE(d1.has_value() && d2.has_value()) << "datagram pair " << i;
+    EXPECT_EQ(d1->bytes, one);
+    EXPECT_EQ(d2->bytes, two);
+    EXPECT_EQ(d1->from, tx.local_endpoint());
+  }
+  tx.Shutdown();
+  EXPECT_EQ(tx.SendBatch(out).status().code(), absl::StatusCode::kFailedPrecondition);
 }
 
 }  // namespace

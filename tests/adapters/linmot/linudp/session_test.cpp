@@ -377,6 +377,58 @@ TEST(Session, SilentFromStart_GoesOfflineFromUnknown) {
   (void)id;
 }
 
+// Issue 10 (P2): cycle periods on the fixed grid. A silent drive completes no exchange, so every
+// period that ended is late; an answering one completes exchanges and never counts more late
+// periods than periods.
+TEST(Session, Cycles_SilentDriveMakesEveryPeriodLate) {
+  ScriptedDrive drive;
+  drive.SetResponder([](const Request&) { return std::vector<Bytes>{}; });
+  TestPeer peer;
+  auto session = OpenLoopback();
+  auto id = session->Register(Options(drive, 2ms), &peer);
+  ASSERT_TRUE(id.ok());
+  ASSERT_TRUE(peer.WaitLink(LinkState::kOffline));  // 3 time-outs of 30 ms: >= 45 periods
+  const ExchangeCounters c = *session->peer_counters(*id);
+  EXPECT_GE(c.cycles, 40u);
+  EXPECT_EQ(c.late_cycles, c.cycles);
+  EXPECT_EQ(c.replies, 0u);
+}
+
+TEST(Session, Cycles_AnsweringDriveMeetsPeriods) {
+  ScriptedDrive drive;
+  TestPeer peer;
+  auto session = OpenLoopback();
+  auto id = session->Register(Options(drive, 5ms), &peer);
+  ASSERT_TRUE(id.ok());
+  ASSERT_TRUE(peer.WaitReplies(20));
+  const ExchangeCounters c = *session->peer_counters(*id);
+  EXPECT_GT(c.cycles, 0u);
+  EXPECT_LT(c.late_cycles, c.cycles);  // some period was met: replies are counted in time
+  EXPECT_LE(c.late_cycles, c.cycles);
+  // A-07 on the grid: never more than one exchange per period (+1 for the running period).
+  EXPECT_LE(c.telegrams_sent, c.cycles + 1);
+}
+
+// Decision 006 with Expedite(peer): an urgent request leaves without waiting for a (here very
+// long) cycle.
+TEST(Session, Expedite_UrgentPeerSendsBeforeItsCycle) {
+  ScriptedDrive drive;
+  class UrgentPeer : public TestPeer {
+   public:
+    bool HasUrgentRequest() noexcept override { return urgent_.exchange(false); }
+    std::atomic<bool> urgent_{false};
+  } peer;
+  auto session = OpenLoopback();
+  auto id = session->Register(Options(drive, 60000ms), &peer);
+  ASSERT_TRUE(id.ok());
+  ASSERT_TRUE(peer.WaitReplies(1));
+  peer.urgent_ = true;
+  session->Expedite(*id);
+  ASSERT_TRUE(peer.WaitReplies(2));  // within kWait, far below the 60 s cycle
+  EXPECT_EQ(drive.requests(), 2u);
+  session->Unregister(*id);
+}
+
 TEST(Session, Unregister_NoCallbacksAfterwards) {
   ScriptedDrive drive, drive2;
   TestPeer peer, other;
