@@ -19,11 +19,18 @@
 //   P2 max_drives_2ms          largest N with < 0.1 % late cycles           target >= 200
 //   P2 cpu_per_telegram_ratio  gateway CPU / bare-loop CPU per exchange at N = 200 (or the
 //                              largest N measured)                          target <= 2
-// Run: build/bench/linudp_cyclic_bench [seconds per N = 5] [N list = 25,50,100,200,300,400]
+// Run: build/bench/linudp_cyclic_bench [seconds per N = 5] [N list = 25,50,100,200,300,400] [rt]
+// `rt` runs this process and the simulators under SCHED_FIFO (priority 10, inherited by every
+// thread and by the fork/exec'ed simulators), as [RC] runs its 1.1 ms LinUDP loop
+// (linmot-linudp.md 6.5): on this shared 2-core VM, with other builds at load 8-10, both the
+// gateway and the bare loop otherwise wait for a CPU longer than the 2 ms cycle. Gateway and
+// baseline get the same priority; the kernel's RT throttling (sched_rt_runtime_us) still
+// leaves 5 % to everyone else.
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
@@ -472,12 +479,22 @@ std::vector<int> ParseList(const char* text) {
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::max(0.2, std::atof(argv[1])) : 5.0;
   const std::vector<int> ns = ParseList(argc > 2 ? argv[2] : "25,50,100,200,300,400");
+  const bool rt = argc > 3 && std::string(argv[3]) == "rt";
+  if (rt) {
+    sched_param param{};
+    param.sched_priority = 10;
+    if (::sched_setscheduler(0, SCHED_FIFO, &param) != 0) {
+      std::fprintf(stderr, "rt: sched_setscheduler: %s\n", std::strerror(errno));
+      return 1;
+    }
+  }
   drivegw::log::SetLevel(drivegw::log::Level::kError);  // link-loss warnings of overload runs
   std::signal(SIGPIPE, SIG_IGN);
   std::mt19937 rng(std::random_device{}());
 
-  std::printf("LinUDP cyclic exchange at %lld ms, %.1f s per N and side; load average %.2f\n",
-              static_cast<long long>(kCycle.count()), seconds, LoadAverage());
+  std::printf("LinUDP cyclic exchange at %lld ms, %.1f s per N and side%s; load average %.2f\n",
+              static_cast<long long>(kCycle.count()), seconds, rt ? ", SCHED_FIFO" : "",
+              LoadAverage());
   std::printf("%5s | %10s %8s %9s %7s %7s | %10s %8s %9s %7s | %6s\n", "N", "gw exch/s", "gw late%",
               "gw us/tg", "gw cpu%", "sim%", "bare ex/s", "bare lt%", "bare us/tg", "sim%",
               "ratio");
@@ -511,23 +528,35 @@ int main(int argc, char** argv) {
   if (rows.empty()) return 1;
 
   int max_n = 0;
+  int max_n_vs_bare = 0;  // the gateway no later than the bare loop on the same machine + 0.1 pt
   nlohmann::json per_n = nlohmann::json::array();
   for (const Row& r : rows) {
     if (r.gw.late_pct() < 0.1) max_n = std::max(max_n, r.n);
+    if (r.gw.late_pct() < r.bare.late_pct() + 0.1) max_n_vs_bare = std::max(max_n_vs_bare, r.n);
     per_n.push_back({{"n", r.n}, {"gateway", WindowJson(r.gw)}, {"bare_loop", WindowJson(r.bare)}});
   }
+  // Informational: where the 0.1 % limit is out of reach even for the bare loop (this VM's
+  // scheduling), how far the gateway keeps up with the bare loop.
+  drivegw::bench::Report({"P2",
+                          "max_drives_2ms_vs_bare_loop",
+                          static_cast<double>(max_n_vs_bare),
+                          "drives",
+                          "",
+                          "bare loop's late cycles + 0.1 percentage points, same N, same run",
+                          {{"sched_fifo", rt}}});
   const Row* at = &rows.back();
   for (const Row& r : rows) {
     if (r.n == 200) at = &r;
   }
   const double ratio = at->gw.cpu_us_per_exchange() / at->bare.cpu_us_per_exchange();
-  drivegw::bench::Report({"P2",
-                          "max_drives_2ms",
-                          static_cast<double>(max_n),
-                          "drives",
-                          ">=200",
-                          "bare UDP request/response loop, same N, same 2 ms grid, same sims",
-                          {{"cycle_ms", 2}, {"late_limit_pct", 0.1}, {"per_n", per_n}}});
+  drivegw::bench::Report(
+      {"P2",
+       "max_drives_2ms",
+       static_cast<double>(max_n),
+       "drives",
+       ">=200",
+       "bare UDP request/response loop, same N, same 2 ms grid, same sims",
+       {{"cycle_ms", 2}, {"late_limit_pct", 0.1}, {"sched_fifo", rt}, {"per_n", per_n}}});
   drivegw::bench::Report({"P2",
                           "cpu_per_telegram_ratio",
                           ratio,
@@ -538,6 +567,7 @@ int main(int argc, char** argv) {
                            {"gateway_cpu_us_per_exchange", at->gw.cpu_us_per_exchange()},
                            {"bare_cpu_us_per_exchange", at->bare.cpu_us_per_exchange()},
                            {"gateway_late_pct", at->gw.late_pct()},
-                           {"bare_late_pct", at->bare.late_pct()}}});
+                           {"bare_late_pct", at->bare.late_pct()},
+                           {"sched_fifo", rt}}});
   return failed ? 1 : 0;
 }
