@@ -117,7 +117,8 @@ class AuditLog {
   // in the order they were queued; a failed batch is rolled back as a whole and every one of its
   // callers gets the error. The first append writes the genesis anchor first; retention adds a
   // warning or prunes (with its anchor) in the same transaction. Safe from any thread; the chain
-  // stays linear across processes too (the transaction reads the head from disk).
+  // stays linear across processes too (the transaction reads the head from disk). Must not be
+  // called by a thread holding db.Lock(): the writer may be another thread waiting for it.
   absl::Status Append(const AuditEntry& entry);
   // The same, returning where the entry landed.
   absl::StatusOr<AuditLink> AppendLinked(const AuditEntry& entry);

@@ -194,11 +194,8 @@ TEST_F(AuditGroupCommitTest, MoreCallersThanMaxBatch_AreSplitIntoBoundedBatches)
 }
 
 TEST_F(AuditGroupCommitTest, RetentionInsideABatch_KeepsTheChainAndEveryCallersLink) {
-  AuditRetention r;
-  r.max_entries = 20;
-  r.warn_at_percent = 90;
-  r.prune_to_percent = 50;
-  ASSERT_TRUE(log_->SetRetention(r).ok());
+  ASSERT_TRUE(
+      log_->SetRetention({.max_entries = 20, .warn_at_percent = 90, .prune_to_percent = 50}).ok());
   AppendOrDie(MakeEntry("x1", "Enable"));
   std::vector<AuditEntry> entries;
   for (int i = 0; i < 30; ++i) {
