@@ -479,13 +479,14 @@ std::vector<int> ParseList(const char* text) {
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::max(0.2, std::atof(argv[1])) : 5.0;
   const std::vector<int> ns = ParseList(argc > 2 ? argv[2] : "25,50,100,200,300,400");
-  const bool rt = argc > 3 && std::string(argv[3]) == "rt";
+  bool rt = argc > 3 && std::string(argv[3]) == "rt";
   if (rt) {
     sched_param param{};
     param.sched_priority = 10;
     if (::sched_setscheduler(0, SCHED_FIFO, &param) != 0) {
-      std::fprintf(stderr, "rt: sched_setscheduler: %s\n", std::strerror(errno));
-      return 1;
+      // Not root: measured at normal priority, and the output says so.
+      std::fprintf(stderr, "rt: sched_setscheduler: %s (normal priority)\n", std::strerror(errno));
+      rt = false;
     }
   }
   drivegw::log::SetLevel(drivegw::log::Level::kError);  // link-loss warnings of overload runs
