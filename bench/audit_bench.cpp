@@ -310,7 +310,7 @@ int main(int argc, char** argv) {
       "\n| threads | audited/s | rows/txn K | p50 µs | p99 µs | bare/s (K) | ratio | "
       "bare+indexes/s | ratio | CPU µs/entry audited / bare / bare+idx |\n"
       "|---|---|---|---|---|---|---|---|---|---|\n");
-  double worst_rate = 0, worst_ratio = 0;
+  double worst_rate = 0, worst_ratio = 0, worst_ratio_idx = 0;
   nlohmann::json detail = nlohmann::json::object();
   bool first = true;
   for (const Scenario& s : scenarios) {
@@ -336,6 +336,7 @@ int main(int argc, char** argv) {
     if (s.threads < 8) continue;
     if (first || a < worst_rate) worst_rate = a;
     if (first || ratio < worst_ratio) worst_ratio = ratio;
+    if (first || ratio_idx < worst_ratio_idx) worst_ratio_idx = ratio_idx;
     first = false;
   }
   detail["synchronous"] = full_sync ? "FULL" : "NORMAL";
@@ -347,5 +348,9 @@ int main(int argc, char** argv) {
       "K rows per transaction (K = audited run's mean)";
   drivegw::bench::Report({"P6", "audited_per_s", worst_rate, "per_s", ">=20000", baseline, detail});
   drivegw::bench::Report({"P6", "audit_ratio", worst_ratio, "ratio", ">=0.8", baseline, detail});
+  // Informational: the same loop into a table with audit_log's indexes (docs/performance.md
+  // explains why this is the comparable baseline).
+  drivegw::bench::Report({"P6", "audit_ratio_indexed_table", worst_ratio_idx, "ratio", "",
+                          absl::StrCat(baseline, ", plus audit_log's secondary indexes"), detail});
   return 0;
 }
