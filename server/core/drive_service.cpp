@@ -23,20 +23,14 @@ namespace {
 constexpr double kDefaultWatchRateHz = 20;
 constexpr double kMaxWatchRateHz = 1000;
 
-// Content of a snapshot without the fields that change on every publish (the link counters
-// change every bus cycle: a snapshot is not new because of them).
-std::string ContentKey(v1::DriveStatus s) {
-  s.clear_time();
-  s.clear_sequence();
-  s.clear_link();
-  return s.SerializeAsString();
-}
-
 }  // namespace
 
 DriveServiceCore::DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives,
                                    storage::AuditLog* audit, const LeaseManager* leases)
-    : drives_(std::move(drives)), audit_(audit), leases_(leases) {
+    : drives_(std::move(drives)),
+      audit_(audit),
+      leases_(leases),
+      snapshots_(std::make_unique<WatchSnapshots>()) {
   for (const auto& d : drives_) by_name_[d->config().name] = d.get();
 }
 
@@ -375,7 +369,7 @@ absl::Status DriveServiceCore::WatchDrives(const v1::WatchDrivesRequest& r, cons
   }
   const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(1.0 / rate));
-  std::vector<std::string> last(watched.size());
+  std::vector<std::shared_ptr<const std::string>> last(watched.size());
   std::vector<uint64_t> last_seq(watched.size(), 0);
   std::vector<bool> sent_any(watched.size(), false);
   auto next = std::chrono::steady_clock::now();
@@ -384,12 +378,13 @@ absl::Status DriveServiceCore::WatchDrives(const v1::WatchDrivesRequest& r, cons
       DriveStatus s = watched[i]->GetStatus();
       if (sent_any[i] && s.sequence == last_seq[i]) continue;
       last_seq[i] = s.sequence;
-      v1::DriveStatus p = StatusToProto(*watched[i], s);
-      std::string key = ContentKey(p);
-      if (sent_any[i] && key == last[i]) continue;
-      last[i] = std::move(key);
+      // Converted once per snapshot for all streams (P5); link counters at most a period old.
+      WatchSnapshots::Snapshot snap = snapshots_->Get(
+          *watched[i], s, [&] { return StatusToProto(*watched[i], s); }, period);
+      if (sent_any[i] && (snap.key == last[i] || *snap.key == *last[i])) continue;
+      last[i] = std::move(snap.key);
       sent_any[i] = true;
-      if (!sink(p)) return absl::OkStatus();
+      if (!sink(*snap.proto)) return absl::OkStatus();
     }
     next += period;
     const auto now = std::chrono::steady_clock::now();

@@ -15,6 +15,7 @@
 #include "server/core/call_context.h"
 #include "server/core/cyclic_stream.h"
 #include "server/core/lease_manager.h"
+#include "server/core/watch_snapshots.h"
 
 namespace drivegw::storage {
 class AuditLog;
@@ -93,6 +94,7 @@ class DriveServiceCore {
   storage::AuditLog* audit_;
   const LeaseManager* leases_;
   std::atomic<bool> shutting_down_{false};
+  std::unique_ptr<WatchSnapshots> snapshots_;  // WatchDrives' shared conversions
 };
 
 }  // namespace drivegw::server
