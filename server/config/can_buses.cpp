@@ -1,6 +1,8 @@
 // One protocol per CAN bus (decision 407).
 #include "server/config/can_buses.h"
 
+#include <cstdint>
+#include <string>
 #include <string_view>
 
 #include "absl/strings/str_cat.h"
@@ -19,6 +21,10 @@ std::string_view ProtocolOf(std::string_view family) {
   return {};
 }
 
+std::string RateText(uint32_t bitrate) {
+  return bitrate == 0 ? std::string("no bitrate (unpaced)") : absl::StrCat(bitrate, " bit/s");
+}
+
 }  // namespace
 
 void CanBusProtocols::Add(size_t index, const std::string& family, const std::string& path,
@@ -26,10 +32,21 @@ void CanBusProtocols::Add(size_t index, const std::string& family, const std::st
   const std::string_view protocol = ProtocolOf(family);
   if (protocol.empty()) return;
   const std::string key = BusKey(bus);
-  auto [it, fresh] = buses_.emplace(key, First{index, family});
+  auto [it, fresh] = buses_.emplace(key, First{index, family, bus.bitrate});
   if (fresh) return;
   const std::string_view theirs = ProtocolOf(it->second.family);
-  if (theirs == protocol) return;
+  if (theirs == protocol) {
+    // Every node of a bus runs at one bit rate (decision 805): two rates on one user-space bus
+    // would pace the same frames differently, which no real bus can do.
+    if (bus.bitrate != it->second.bitrate) {
+      errors_.Add(absl::StrCat(path, ".udp.bitrate"),
+                  absl::StrCat(RateText(bus.bitrate), " differs from ",
+                               RateText(it->second.bitrate), " of drives[", it->second.index,
+                               "] on ", key, "; a bus has one bit rate (decision 805)"),
+                  at);
+    }
+    return;
+  }
   // DeviceNet groups 1-3 fill 000h-7BFh (linmot-devicenet.md §5.1), the CANopen predefined
   // connection set 000h-77Fh (CiA 301 §7.3.3), Trinamic IDs are address << 3 (trinamic-sixpack.md
   // §3.1, L289): frames of one would be taken for frames of the other.

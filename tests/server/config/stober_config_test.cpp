@@ -399,3 +399,41 @@ TEST(StoberConfigTest, DemoDrive_NodeThreeOnTheGivenBus_FlinLimits) {
 
 }  // namespace
 }  // namespace drivegw::config
+
+// ---- one bit rate per bus (decision 805) ----
+
+namespace drivegw::config {
+namespace {
+
+TEST(CanBitrateConfigTest, BitrateParsedIntoTheBus) {
+  auto cfg = ParseConfig(With("port: 43114}", "port: 43114, bitrate: 500000}"));
+  ASSERT_TRUE(cfg.ok()) << cfg.status();
+  ASSERT_TRUE(cfg->drives[0].can.has_value());
+  EXPECT_EQ(cfg->drives[0].can->bitrate, 500000u);
+}
+
+TEST(CanBitrateConfigTest, UnsupportedBitrate_NamesKeyAndValue) {
+  const std::string msg = Message(With("port: 43114}", "port: 43114, bitrate: 100000}"));
+  EXPECT_THAT(msg, HasSubstr("drives[0].can.udp.bitrate: 100000"));
+}
+
+TEST(CanBitrateConfigTest, TwoRatesOnOneBus_RefusedNamingBoth) {
+  const std::string msg =
+      Message(PlusDrive("s2", "stober",
+                        "    can: {udp: {group: 239.74.163.2, port: 43114, bitrate: 250000}}\n"
+                        "    node_id: 4\n"));
+  EXPECT_THAT(msg, HasSubstr("drives[1].can.udp.bitrate: 250000 bit/s differs from no bitrate "
+                             "(unpaced) of drives[0] on udp:239.74.163.2:43114; a bus has one "
+                             "bit rate (decision 805)"));
+  // The same rate on both drives of the bus is fine.
+  const std::string both = absl::StrReplaceAll(
+      PlusDrive("s2", "stober",
+                "    can: {udp: {group: 239.74.163.2, port: 43114, bitrate: 250000}}\n"
+                "    node_id: 4\n"),
+      {{"port: 43114}}\n    node_id: 3", "port: 43114, bitrate: 250000}}\n    node_id: 3"}});
+  auto cfg = ParseConfig(both);
+  EXPECT_TRUE(cfg.ok()) << cfg.status() << "\n" << both;
+}
+
+}  // namespace
+}  // namespace drivegw::config
