@@ -445,7 +445,9 @@ RunResult RunOnce(const Paths& paths, int drives, double steady_s, int round) {
   reader.join();
   Stop(gw);
   for (Child& c : s.sims) Stop(c);
-  if (r.ok) fs::remove_all(s.dir);  // kept for a look after a failure
+  std::ofstream(s.dir / "drivegw.stderr") << gw.out;
+  // Kept for a look after a failure, or when STARTUP_BENCH_KEEP is set.
+  if (r.ok && std::getenv("STARTUP_BENCH_KEEP") == nullptr) fs::remove_all(s.dir);
   return r;
 }
 

@@ -3,6 +3,9 @@
 
   bench_collect.py MODE OUT.json LOG...       -> OUT.json {date, revision, mode, machine, results}
   bench_collect.py --table OUT.json DOC.md    -> the table between the bench:results markers
+  bench_collect.py --check OUT.json [BENCH...] -> exit 1 unless OUT.json holds well-formed results
+                                                 (id, metric, numeric value, boolean met), at
+                                                 least one from every BENCH named (ctest bench.runner)
 """
 import datetime
 import json
@@ -75,7 +78,43 @@ def table(out, doc_path):
     print(f"bench: table in {doc_path}")
 
 
+def check(out, benches):
+    """The runner's own test: what scripts/bench.sh wrote must be usable by the table and by people."""
+    problems = []
+    try:
+        with open(out, encoding="utf-8") as f:
+            doc = json.load(f)
+    except (OSError, ValueError) as e:
+        print(f"bench check: {out}: {e}")
+        return 1
+    for key in ("date", "revision", "mode", "machine", "results"):
+        if key not in doc:
+            problems.append(f"missing top-level key '{key}'")
+    results = doc.get("results") or []
+    if not results:
+        problems.append("no results")
+    for i, r in enumerate(results):
+        for key in ("id", "metric", "value", "met", "target", "unit", "bench"):
+            if key not in r:
+                problems.append(f"results[{i}]: missing '{key}'")
+        if not isinstance(r.get("value"), (int, float)) or isinstance(r.get("value"), bool):
+            problems.append(f"results[{i}] {r.get('metric')}: value {r.get('value')!r} is not a number")
+        if not isinstance(r.get("met"), bool):
+            problems.append(f"results[{i}] {r.get('metric')}: met {r.get('met')!r} is not a boolean")
+    seen = {r.get("bench") for r in results}
+    for b in benches:
+        if b not in seen:
+            problems.append(f"benchmark {b}: no @result line")
+    for p in problems:
+        print(f"bench check: {out}: {p}")
+    if not problems:
+        print(f"bench check: {out}: {len(results)} results from {len(seen)} benchmarks, well-formed")
+    return 1 if problems else 0
+
+
 if __name__ == "__main__":
+    if sys.argv[1] == "--check":
+        sys.exit(check(sys.argv[2], sys.argv[3:]))
     if sys.argv[1] == "--table":
         table(sys.argv[2], sys.argv[3])
     else:
