@@ -14,6 +14,7 @@
 // Run: build/bench/watch_streams_bench [streams = 1000] [seconds = 5] [rounds = 2] [channels = 4]
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -127,7 +128,17 @@ class Watcher final : public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::Byt
   grpc::Status status_;
 };
 
+double ProcessCpuSeconds() {
+  rusage u{};
+  ::getrusage(RUSAGE_SELF, &u);
+  auto s = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
+  };
+  return s(u.ru_utime) + s(u.ru_stime);
+}
+
 struct RoundResult {
+  double cpu_s = 0;   // process CPU (server, client, x1's drive and simulator) within the window
   long messages = 0;  // within the window, all streams
   int behind = 0;
   int failed = 0;  // streams that ended with an error other than CANCELLED
@@ -165,6 +176,10 @@ RoundResult RunStreams(uint16_t port, int streams, int channels, double seconds,
   const auto t0 = Clock::now() + warmup;
   const auto t1 =
       t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+  std::this_thread::sleep_until(t0);
+  const double cpu0 = ProcessCpuSeconds();
+  std::this_thread::sleep_until(t1);
+  const double cpu1 = ProcessCpuSeconds();
   std::this_thread::sleep_until(t1 + 50ms);
   for (auto& w : watchers) w->Cancel();
   {
@@ -175,6 +190,7 @@ RoundResult RunStreams(uint16_t port, int streams, int channels, double seconds,
 
   RoundResult r;
   r.window_s = seconds;
+  r.cpu_s = cpu1 - cpu0;
   const double want = kRateHz * seconds;
   size_t bytes_total = 0, msgs_total = 0;
   for (auto& w : watchers) {
@@ -276,6 +292,7 @@ double LoadAverage() {
 
 void Accumulate(RoundResult& sum, const RoundResult& r) {
   sum.messages += r.messages;
+  sum.cpu_s += r.cpu_s;
   sum.behind = std::max(sum.behind, r.behind);  // the worst round
   sum.failed += r.failed;
   sum.window_s += r.window_s;
@@ -334,16 +351,24 @@ int main(int argc, char** argv) {
       gate.window_s > 0 ? static_cast<double>(gate.messages) / gate.window_s : 0;
   const double ratio = base_rate > 0 ? gate_rate / base_rate : 0;
   const double ideal = kRateHz * streams;
+  // Process CPU per delivered message (gateway or baseline server, client, x1's drive and sim):
+  // with the per-message cost and the CPU the machine gives this process, what rate can be had.
+  auto cpu_us = [](const RoundResult& r) {
+    return r.messages > 0 ? 1e6 * r.cpu_s / static_cast<double>(r.messages) : 0;
+  };
+  auto cores = [](const RoundResult& r) { return r.window_s > 0 ? r.cpu_s / r.window_s : 0; };
   std::printf("P5 WatchDrives: %d streams x %.0f Hz on %d channels, %d x %.1f s windows\n", streams,
               kRateHz, channels, rounds, seconds);
-  std::printf("%-40s %11s %8s %8s %10s %9s %7s\n", "measurement", "msgs/s", "of ideal", "behind",
-              "worst gap", "min share", "B/msg");
-  std::printf("%-40s %11.0f %7.1f%% %8d %8.1fms %8.1f%% %7.0f\n",
+  std::printf("%-40s %11s %8s %8s %10s %9s %7s %9s %6s\n", "measurement", "msgs/s", "of ideal",
+              "behind", "worst gap", "min share", "B/msg", "CPU us/m", "cores");
+  std::printf("%-40s %11.0f %7.1f%% %8d %8.1fms %8.1f%% %7.0f %9.1f %6.2f\n",
               "baseline: empty payload, same reactor", base_rate, 100 * base_rate / ideal,
-              base.behind, base.worst_gap_ms, 100 * base.min_share, base.bytes_per_msg);
-  std::printf("%-40s %11.0f %7.1f%% %8d %8.1fms %8.1f%% %7.0f\n",
+              base.behind, base.worst_gap_ms, 100 * base.min_share, base.bytes_per_msg,
+              cpu_us(base), cores(base));
+  std::printf("%-40s %11.0f %7.1f%% %8d %8.1fms %8.1f%% %7.0f %9.1f %6.2f\n",
               "gateway: WatchDrives x1 (moving)", gate_rate, 100 * gate_rate / ideal, gate.behind,
-              gate.worst_gap_ms, 100 * gate.min_share, gate.bytes_per_msg);
+              gate.worst_gap_ms, 100 * gate.min_share, gate.bytes_per_msg, cpu_us(gate),
+              cores(gate));
   std::printf(
       "ratio gateway/baseline %.2f (target >= 0.8); streams behind %d (target 0); failed %d; load "
       "%.2f -> %.2f\n",
@@ -360,6 +385,10 @@ int main(int argc, char** argv) {
                                  {"baseline_behind", base.behind},
                                  {"baseline_worst_gap_ms", base.worst_gap_ms},
                                  {"gateway_bytes_per_msg", gate.bytes_per_msg},
+                                 {"gateway_cpu_us_per_msg", cpu_us(gate)},
+                                 {"baseline_cpu_us_per_msg", cpu_us(base)},
+                                 {"gateway_cores_used", cores(gate)},
+                                 {"baseline_cores_used", cores(base)},
                                  {"load_avg", load_after}};
   drivegw::bench::Report({"P5", "watch_streams_ratio", ratio, "ratio", ">=0.8",
                           "same streams, empty payload, same reactor and threading", detail});
