@@ -524,9 +524,20 @@ DriveStatus LinMotUdpDrive::BuildStatusLocked() const {
   return s;
 }
 
+LinMotUdpDrive::StatusInputs LinMotUdpDrive::StatusInputsLocked() const {
+  return StatusInputs{OnlineLocked(),          sample_.valid,           sample_.state_var.raw(),
+                      sample_.status_word.raw, sample_.warn_word,       sample_.error_code,
+                      sample_.actual_position, sample_.demand_position, velocity_mm_s_};
+}
+
 void LinMotUdpDrive::PublishLocked(bool force) {
-  DriveStatus s = BuildStatusLocked();
   const TimePoint now = clock_.Now();
+  const StatusInputs inputs = StatusInputsLocked();
+  if (!force && published_ && published_inputs_ == inputs && now - published_at_ < kHeartbeat) {
+    return;  // BuildStatusLocked would give the very status published last (SameStatus)
+  }
+  published_inputs_ = inputs;
+  DriveStatus s = BuildStatusLocked();
   if (!force && published_ && SameStatus(*published_, s) && now - published_at_ < kHeartbeat) {
     return;
   }

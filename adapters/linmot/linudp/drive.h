@@ -4,16 +4,17 @@
 // A-07..A-10; decisions docs/decisions/701..705.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -118,6 +119,36 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
     std::optional<TimePoint> started;
     double reported = -1;  // progress last published
   };
+  // FIFO of position samples on a ring that only grows (to the velocity window's sample count):
+  // std::deque allocated a new block every few dozen replies (issue 10, P2: nothing allocated
+  // per telegram).
+  class SampleRing {
+   public:
+    void push_back(const PositionSample& s) {
+      if (size_ == ring_.size()) Grow();
+      ring_[(head_ + size_) % ring_.size()] = s;
+      ++size_;
+    }
+    void pop_front() {
+      head_ = (head_ + 1) % ring_.size();
+      --size_;
+    }
+    const PositionSample& operator[](size_t i) const { return ring_[(head_ + i) % ring_.size()]; }
+    const PositionSample& front() const { return (*this)[0]; }
+    size_t size() const { return size_; }
+    void clear() { head_ = size_ = 0; }
+
+   private:
+    void Grow() {
+      std::vector<PositionSample> bigger(std::max<size_t>(8, 2 * ring_.size()));
+      for (size_t i = 0; i < size_; ++i) bigger[i] = (*this)[i];
+      ring_.swap(bigger);
+      head_ = 0;
+    }
+    std::vector<PositionSample> ring_;
+    size_t head_ = 0;
+    size_t size_ = 0;
+  };
   // A motion command between Move/SendNative and its final state (linmot-mc.md §4.4).
   struct MotionTracker {
     uint64_t id = 0;
@@ -215,9 +246,9 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   PeerId peer_id_ = 0;
   LinkState link_ = LinkState::kUnknown;
   Sample sample_;
-  std::deque<PositionSample> history_;  // velocity window
-  double velocity_mm_s_ = 0;            // from actual positions (decision 703)
-  double demand_velocity_mm_s_ = 0;     // from demand positions, for planning
+  SampleRing history_;               // velocity window
+  double velocity_mm_s_ = 0;         // from actual positions (decision 703)
+  double demand_velocity_mm_s_ = 0;  // from demand positions, for planning
   uint64_t replies_ = 0;
   uint64_t timeouts_ = 0;
 
@@ -244,6 +275,23 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
 
   std::optional<DriveStatus> published_;
   TimePoint published_at_{};
+  // Everything BuildStatusLocked reads, as of the last BuildStatusLocked in PublishLocked: an
+  // unchanged reply then skips building (and allocating) a status that SameStatus would drop
+  // anyway (issue 10, P2: nothing allocated per telegram while a drive stands still).
+  struct StatusInputs {
+    bool online = false;
+    bool valid = false;
+    uint16_t state_var = 0;
+    uint16_t status_word = 0;
+    uint16_t warn_word = 0;
+    uint16_t error_code = 0;
+    int32_t actual_position = 0;
+    int32_t demand_position = 0;
+    double velocity_mm_s = 0;
+    friend bool operator==(const StatusInputs&, const StatusInputs&) = default;
+  };
+  StatusInputs StatusInputsLocked() const;
+  std::optional<StatusInputs> published_inputs_;
 };
 
 }  // namespace drivegw::linmot::linudp
