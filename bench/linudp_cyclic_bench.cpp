@@ -444,6 +444,43 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
   return w;
 }
 
+// The host alone: a thread that only sleeps to an absolute 2 ms grid (clock_nanosleep) and
+// records how late it wakes, at the same priority as the two sides. No network, no LinUDP: the
+// fraction of wake-ups late by more than half a cycle bounds what any 2 ms loop can meet here.
+struct HostProbe {
+  uint64_t wakeups = 0;
+  uint64_t late_half_cycle = 0;  // woke more than 1 ms after its grid point
+  double max_late_us = 0;
+  double late_pct() const {
+    return wakeups ? 100.0 * static_cast<double>(late_half_cycle) / static_cast<double>(wakeups)
+                   : 0;
+  }
+};
+
+HostProbe ProbeHost(double seconds) {
+  HostProbe h;
+  timespec next{};
+  clock_gettime(CLOCK_MONOTONIC, &next);
+  const auto end = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                            std::chrono::duration<double>(seconds));
+  while (SteadyClock::now() < end) {
+    next.tv_nsec += std::chrono::nanoseconds(kCycle).count();
+    if (next.tv_nsec >= 1'000'000'000) {
+      next.tv_nsec -= 1'000'000'000;
+      ++next.tv_sec;
+    }
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
+    timespec now{};
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    const double late_us = static_cast<double>(now.tv_sec - next.tv_sec) * 1e6 +
+                           static_cast<double>(now.tv_nsec - next.tv_nsec) / 1e3;
+    ++h.wakeups;
+    if (late_us > 1000) ++h.late_half_cycle;
+    h.max_late_us = std::max(h.max_late_us, late_us);
+  }
+  return h;
+}
+
 struct Row {
   int n;
   Window gw, bare;
@@ -496,6 +533,10 @@ int main(int argc, char** argv) {
   std::printf("LinUDP cyclic exchange at %lld ms, %.1f s per N and side%s; load average %.2f\n",
               static_cast<long long>(kCycle.count()), seconds, rt ? ", SCHED_FIFO" : "",
               LoadAverage());
+  const HostProbe host = ProbeHost(seconds);
+  std::printf("host: %llu wake-ups on a 2 ms grid, %.3f %% late by > 1 ms, max %.0f us\n",
+              static_cast<unsigned long long>(host.wakeups), host.late_pct(), host.max_late_us);
+  std::fflush(stdout);
   std::printf("%5s | %10s %8s %9s %7s %7s | %10s %8s %9s %7s | %6s\n", "N", "gw exch/s", "gw late%",
               "gw us/tg", "gw cpu%", "sim%", "bare ex/s", "bare lt%", "bare us/tg", "sim%",
               "ratio");
@@ -545,6 +586,16 @@ int main(int argc, char** argv) {
                           "",
                           "bare loop's late cycles + 0.1 percentage points, same N, same run",
                           {{"sched_fifo", rt}}});
+  drivegw::bench::Report({"P2",
+                          "host_timer_late_pct",
+                          host.late_pct(),
+                          "percent",
+                          "",
+                          "a bare clock_nanosleep loop on the 2 ms grid, same priority, same run",
+                          {{"wakeups", host.wakeups},
+                           {"late_over_1ms", host.late_half_cycle},
+                           {"max_late_us", host.max_late_us},
+                           {"sched_fifo", rt}}});
   const Row* at = &rows.back();
   for (const Row& r : rows) {
     if (r.n == 200) at = &r;
