@@ -173,38 +173,22 @@ std::vector<double> MeasureMoveAck(Gateway& gw, int n) {
   return us;
 }
 
-// A cheap unary call on the gateway's own gRPC server, run inline on gRPC's thread: GetCommand
-// of the last move's handle. Its excess over the bare echo is the server's per-call overhead
-// (interceptor, authorisation, the larger service); MoveAbsolute's excess over this and the core
-// is the worker-pool hand-off.
-std::vector<double> MeasureGetCommand(Gateway& gw, int n) {
+// Times n unary calls (after 50 discarded) on a fresh DriveService channel to the gateway; `call`
+// makes one call with the given context and must return `want`, or the bench stops.
+template <typename Call>
+std::vector<double> TimeGatewayCalls(Gateway& gw, int n, grpc::StatusCode want, const char* what,
+                                     Call call) {
   auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(gw.grpc_port()),
                                      grpc::InsecureChannelCredentials());
   auto stub = drivegw::v1::DriveService::NewStub(channel);
-  drivegw::v1::GetCommandRequest req;
-  {
-    drivegw::v1::MoveAbsoluteRequest move;
-    move.set_name("drives/x1");
-    move.set_position_mm(50);
-    move.set_velocity_mm_s(1000);
-    move.set_acceleration_mm_s2(10000);
-    drivegw::v1::CommandHandle h;
-    grpc::ClientContext ctx;
-    if (!stub->MoveAbsolute(&ctx, move, &h).ok()) {
-      ++g_errors;
-      return {};
-    }
-    req.set_name(h.name());
-  }
   std::vector<double> us;
   for (int i = 0; i < n + 50; ++i) {
-    drivegw::v1::CommandHandle h;
     grpc::ClientContext ctx;
     const auto t0 = Clock::now();
-    grpc::Status s = stub->GetCommand(&ctx, req, &h);
+    const grpc::Status s = call(*stub, ctx);
     const auto t1 = Clock::now();
-    if (!s.ok()) {
-      std::fprintf(stderr, "GetCommand %s failed: %s\n", req.name().c_str(),
+    if (s.error_code() != want) {
+      std::fprintf(stderr, "%s: want code %d, got %d %s\n", what, want, s.error_code(),
                    s.error_message().c_str());
       std::exit(1);
     }
@@ -213,31 +197,41 @@ std::vector<double> MeasureGetCommand(Gateway& gw, int n) {
   return us;
 }
 
+// A cheap unary call on the gateway's own gRPC server, run inline on gRPC's thread: GetCommand
+// of the last move's handle. Its excess over the bare echo is the server's per-call overhead
+// (interceptor, authorisation, the larger service).
+std::vector<double> MeasureGetCommand(Gateway& gw, int n) {
+  drivegw::v1::MoveAbsoluteRequest move;
+  move.set_name("drives/x1");
+  move.set_position_mm(50);
+  move.set_velocity_mm_s(1000);
+  move.set_acceleration_mm_s2(10000);
+  drivegw::v1::CommandHandle handle;
+  TimeGatewayCalls(gw, 0, grpc::StatusCode::OK, "MoveAbsolute",
+                   [&](drivegw::v1::DriveService::Stub& stub, grpc::ClientContext& ctx) {
+                     return stub.MoveAbsolute(&ctx, move, &handle);
+                   });
+  drivegw::v1::GetCommandRequest req;
+  req.set_name(handle.name());
+  drivegw::v1::CommandHandle h;
+  return TimeGatewayCalls(gw, n, grpc::StatusCode::OK, "GetCommand",
+                          [&](drivegw::v1::DriveService::Stub& stub, grpc::ClientContext& ctx) {
+                            return stub.GetCommand(&ctx, req, &h);
+                          });
+}
+
 // A call that takes the worker-pool path (Offload) but does no work there: ReadParameter of a
 // drive that is not configured (NotFound at once, no drive access, no audit). Its excess over
 // GetCommand is the hand-off to the pool and the reply finished from a pool thread.
 std::vector<double> MeasureOffloadedNoop(Gateway& gw, int n) {
-  auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(gw.grpc_port()),
-                                     grpc::InsecureChannelCredentials());
-  auto stub = drivegw::v1::DriveService::NewStub(channel);
   drivegw::v1::ReadParameterRequest req;
   req.set_name("drives/not-configured");
   req.set_parameter_id(0x1450);
-  std::vector<double> us;
-  for (int i = 0; i < n + 50; ++i) {
-    drivegw::v1::Parameter p;
-    grpc::ClientContext ctx;
-    const auto t0 = Clock::now();
-    grpc::Status s = stub->ReadParameter(&ctx, req, &p);
-    const auto t1 = Clock::now();
-    if (s.error_code() != grpc::StatusCode::NOT_FOUND) {
-      std::fprintf(stderr, "ReadParameter: want NOT_FOUND, got %d %s\n", s.error_code(),
-                   s.error_message().c_str());
-      std::exit(1);
-    }
-    if (i >= 50) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
-  }
-  return us;
+  drivegw::v1::Parameter p;
+  return TimeGatewayCalls(gw, n, grpc::StatusCode::NOT_FOUND, "ReadParameter",
+                          [&](drivegw::v1::DriveService::Stub& stub, grpc::ClientContext& ctx) {
+                            return stub.ReadParameter(&ctx, req, &p);
+                          });
 }
 
 // The same call without gRPC: the core's MoveAbsolute straight into the drive and the session,
