@@ -24,6 +24,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -31,6 +32,7 @@
 #include <vector>
 
 #include "bench/report.h"
+#include "google/protobuf/util/json_util.h"
 #include "server/core/drive_service.h"
 #include "server/gateway.h"
 
@@ -171,6 +173,7 @@ LoadResult RunLoad(uint16_t port, const std::string& target, int connections, do
       Die("send failed");
     }
   };
+  const double cpu0 = ProcessCpuSeconds();
   const auto start = Clock::now();
   const auto end =
       start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
@@ -241,6 +244,33 @@ Summary Summarize(const std::vector<LoadResult>& runs) {
   return s;
 }
 
+// What the gateway path costs without HTTP and gRPC: the core's GetDrive and the proto -> JSON
+// printing the router does (same options), CPU µs per call of this thread.
+double CoreAndJsonCpuUs(drivegw::server::DriveServiceCore& core, int n) {
+  google::protobuf::util::JsonPrintOptions o;
+  o.always_print_primitive_fields = true;
+  o.preserve_proto_field_names = true;
+  drivegw::v1::GetDriveRequest req;
+  req.set_name("drives/x1");
+  drivegw::server::CallContext cc;
+  size_t bytes = 0;
+  auto thread_cpu = [] {
+    timespec t{};
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+  };
+  const double cpu0 = thread_cpu();
+  for (int i = 0; i < n; ++i) {
+    auto d = core.GetDrive(req, cc);
+    if (!d.ok()) Die("core GetDrive failed");
+    std::string json;
+    if (!google::protobuf::util::MessageToJsonString(*d, &json, o).ok()) Die("JSON failed");
+    bytes += json.size();
+  }
+  if (bytes == 0) Die("empty JSON");
+  return 1e6 * (thread_cpu() - cpu0) / n;
+}
+
 double LoadAverage() {
   double l = 0;
   if (FILE* f = std::fopen("/proc/loadavg", "r")) {
@@ -287,6 +317,7 @@ int main(int argc, char** argv) {
   }
   const double load_after = LoadAverage();
   const Summary b = Summarize(bare_runs), g = Summarize(gw_runs), f = Summarize(fixed_runs);
+  const double core_json_us = CoreAndJsonCpuUs((*gw)->core(), std::max(1000, rounds * 5000));
   (*gw)->Stop();
   std::filesystem::remove_all(tmpl);
 
@@ -301,6 +332,8 @@ int main(int argc, char** argv) {
               g.p99, g.n, g.cpu_us);
   std::printf("%-44s %10.0f %9.1f %9.1f %9ld %9.1f\n", "  gateway HTTP layer only (GET /readyz)",
               f.rps, f.p50, f.p99, f.n, f.cpu_us);
+  std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  core GetDrive + JSON only (one thread)", "", "",
+              "", "", core_json_us);
   std::printf("ratio gateway/bare %.2f (target >= 0.7); non-200: %ld; load %.2f -> %.2f\n", ratio,
               g.errors + b.errors, load_before, load_after);
   drivegw::bench::Report({"P4",
@@ -319,6 +352,7 @@ int main(int argc, char** argv) {
                            {"gateway_cpu_us_per_req", g.cpu_us},
                            {"bare_cpu_us_per_req", b.cpu_us},
                            {"http_layer_only_cpu_us_per_req", f.cpu_us},
+                           {"core_get_drive_and_json_cpu_us", core_json_us},
                            {"connections", connections},
                            {"body_bytes", probe.body_bytes},
                            {"requests", g.n},
