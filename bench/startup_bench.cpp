@@ -2,9 +2,9 @@
 // P7: RSS < 64 MB, ready < 1 s): starts the simulators of a realistic mix (LinMot LinUDP drives
 // behind one `drivegw-sim linmot --count N`, LinMot DeviceNet drives on a user-space CAN bus,
 // STOBER CANopen nodes on another, Trinamic SIXpacks on CAN buses of their own), writes the
-// configuration, fork/execs the gateway and measures exec -> /readyz 200, exec -> no drive
-// OFFLINE (informational), then VmRSS/VmHWM, threads and fds after a steady period. The same
-// for a 1-drive configuration shows the per-drive cost. No baseline: the issue names none.
+// configuration, fork/execs the gateway and measures exec -> /readyz 200, exec -> every drive
+// seen not OFFLINE (informational), then VmRSS/VmHWM, threads and fds after a steady period. The
+// same for a 1-drive configuration shows the per-drive cost. No baseline: the issue names none.
 //
 //   startup_bench [steady_s = 10] [drives = 200] [rounds = 3] [drivegw path] [drivegw-sim path]
 //
@@ -359,9 +359,13 @@ ProcStatus ReadProc(pid_t pid) {
 
 struct RunResult {
   bool ok = false;
-  double ready_ms = 0;    // fork/exec -> first /readyz 200
-  double online_ms = -1;  // fork/exec -> no drive OFFLINE (-1: not within the time-out)
-  int online = 0;         // drives not OFFLINE at the end
+  double ready_ms = 0;  // fork/exec -> first /readyz 200
+  // fork/exec -> every drive has been seen not OFFLINE at least once (-1: not within 30 s). A
+  // LinUDP link that later flaps on a loaded host (150 drives polled every 5 ms) is P2's subject,
+  // not start-up's; `online_now` says how many were online at the last look.
+  double online_ms = -1;
+  int online = 0;                                  // drives seen online at least once
+  int online_now = 0;                              // drives not OFFLINE at the last look
   std::map<std::string, double> family_online_ms;  // family -> its last drive's first online
   ProcStatus proc;
 };
@@ -427,7 +431,8 @@ RunResult RunOnce(const Paths& paths, int drives, double steady_s, int round) {
     std::map<std::string, std::pair<std::string, double>> seen;
     while (MsSince(t0) < 30000 + r.ready_ms) {
       const HttpReply list = Get(http_port, "/v1/drives");
-      if (list.status == 200) r.online = CountOnline(list.body, MsSince(t0), seen);
+      if (list.status == 200) r.online_now = CountOnline(list.body, MsSince(t0), seen);
+      r.online = static_cast<int>(seen.size());
       if (r.online == drives) {
         r.online_ms = MsSince(t0);
         break;
@@ -444,8 +449,12 @@ RunResult RunOnce(const Paths& paths, int drives, double steady_s, int round) {
           std::chrono::duration<double, std::milli>(steady_until_ms - MsSince(t0)));
     }
     r.proc = ReadProc(gw.pid);
+    if (const HttpReply list = Get(http_port, "/v1/drives"); list.status == 200) {
+      r.online_now = CountOnline(list.body, MsSince(t0), seen);
+    }
     if (r.online != drives) {
-      std::fprintf(stderr, "startup_bench: %d of %d drives online after 30 s\n", r.online, drives);
+      std::fprintf(stderr, "startup_bench: %d of %d drives seen online within 30 s\n", r.online,
+                   drives);
       r.ok = false;
     }
   }
@@ -513,6 +522,11 @@ int main(int argc, char** argv) {
     for (const RunResult& r : runs[n]) v.push_back(field(r));
     return Median(v);
   };
+  auto rounds_of = [&](int n, auto field) {
+    std::vector<double> v;
+    for (const RunResult& r : runs[n]) v.push_back(field(r));
+    return v;
+  };
   const double ready = med(drives, [](const RunResult& r) { return r.ready_ms; });
   const double ready1 = med(1, [](const RunResult& r) { return r.ready_ms; });
   const double online = med(drives, [](const RunResult& r) { return r.online_ms; });
@@ -551,6 +565,8 @@ int main(int argc, char** argv) {
            {"mix", mix_json},
            {"ready_ms_1_drive", ready1},
            {"all_online_ms", online},
+           {"ready_ms_rounds", rounds_of(drives, [](const RunResult& r) { return r.ready_ms; })},
+           {"online_at_rss_sample_last_round", runs[drives].back().online_now},
            {"family_online_ms_last_round", runs[drives].back().family_online_ms},
            {"rounds", rounds},
            {"load_average", load[0]}}});
@@ -580,7 +596,7 @@ int main(int argc, char** argv) {
           online,
           "ms",
           "",
-          "informational: exec -> no drive OFFLINE",
+          "informational: exec -> every drive seen not OFFLINE once",
           {{"drives", drives}}});
   Report({"P7",
           "threads",
