@@ -206,6 +206,13 @@ std::string BusYaml(uint16_t port) {
   return std::string("{udp: {group: ") + kGroup + ", port: " + std::to_string(port) + "}}";
 }
 
+// The axis mapping of a drive entry: travel and dynamics limits (docs/config.md "drives[i].axis").
+std::string AxisYaml(int min_mm, int max_mm, int velocity_mm_s, int acceleration_mm_s2) {
+  return "axis: {min_mm: " + std::to_string(min_mm) + ", max_mm: " + std::to_string(max_mm) +
+         ", max_velocity_mm_s: " + std::to_string(velocity_mm_s) +
+         ", max_acceleration_mm_s2: " + std::to_string(acceleration_mm_s2) + "}";
+}
+
 struct Mix {
   int linmot = 0, devicenet = 0, stober = 0, trinamic = 0;
   int total() const { return linmot + devicenet + stober + trinamic; }
@@ -272,9 +279,7 @@ Setup Prepare(const Paths& paths, const Mix& mix, int round) {
       if (at == std::string::npos) continue;
       const int port = std::atoi(line.c_str() + at + 10);
       yaml << "  - {name: lm" << ++i << ", family: linmot, linudp: {host: 127.0.0.1, port: " << port
-           << ", master_port: " << master
-           << "}, axis: {min_mm: 0, max_mm: 150, max_velocity_mm_s: 2000, "
-              "max_acceleration_mm_s2: 20000}}\n";
+           << ", master_port: " << master << "}, " << AxisYaml(0, 150, 2000, 20000) << "}\n";
     }
     s.sims.push_back(std::move(c));
   }
@@ -287,9 +292,7 @@ Setup Prepare(const Paths& paths, const Mix& mix, int round) {
       Fail("devicenet simulator did not start", sim_log);
     for (int i = 1; i <= mix.devicenet; ++i) {
       yaml << "  - {name: dn" << i << ", family: linmot-devicenet, can: " << BusYaml(bus)
-           << ", mac_id: " << i
-           << ", axis: {min_mm: 0, max_mm: 150, max_velocity_mm_s: 1000, "
-              "max_acceleration_mm_s2: 10000}}\n";
+           << ", mac_id: " << i << ", " << AxisYaml(0, 150, 1000, 10000) << "}\n";
     }
     s.sims.push_back(std::move(c));
   }
@@ -302,9 +305,7 @@ Setup Prepare(const Paths& paths, const Mix& mix, int round) {
                       false, sim_log);
       if (!WaitForLines(c, 1, 20s)) Fail("stober simulator did not start", sim_log);
       yaml << "  - {name: st" << node << ", family: stober, can: " << BusYaml(bus)
-           << ", node_id: " << node
-           << ", axis: {min_mm: -10000, max_mm: 10000, max_velocity_mm_s: 1000, "
-              "max_acceleration_mm_s2: 10000}}\n";
+           << ", node_id: " << node << ", " << AxisYaml(-10000, 10000, 1000, 10000) << "}\n";
       s.sims.push_back(std::move(c));
     }
   }
@@ -317,9 +318,8 @@ Setup Prepare(const Paths& paths, const Mix& mix, int round) {
     for (int axis = 0; axis < 6 && pack * 6 + axis < mix.trinamic; ++axis) {
       yaml << "  - {name: tr" << pack * 6 + axis + 1
            << ", family: trinamic, trinamic: {can: " << BusYaml(bus)
-           << ", address: 1, axis: " << axis
-           << ", microsteps_per_unit: 640}, axis: {min_mm: 0, max_mm: 200, max_velocity_mm_s: 40, "
-              "max_acceleration_mm_s2: 190}}\n";
+           << ", address: 1, axis: " << axis << ", microsteps_per_unit: 640}, "
+           << AxisYaml(0, 200, 40, 190) << "}\n";
     }
     s.sims.push_back(std::move(c));
   }
