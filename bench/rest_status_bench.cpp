@@ -31,6 +31,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench/demo_gateway.h"
 #include "bench/report.h"
 #include "google/protobuf/util/json_util.h"
 #include "server/core/drive_service.h"
@@ -134,15 +135,6 @@ struct LoadResult {
   size_t body_bytes = 0;  // of the last response
 };
 
-double ProcessCpuSeconds() {
-  rusage u{};
-  ::getrusage(RUSAGE_SELF, &u);
-  auto s = [](const timeval& t) {
-    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
-  };
-  return s(u.ru_utime) + s(u.ru_stime);
-}
-
 // Keep-alive connections, one request in flight each, for `seconds`.
 LoadResult RunLoad(uint16_t port, const std::string& target, int connections, double seconds) {
   const std::string request =
@@ -173,7 +165,7 @@ LoadResult RunLoad(uint16_t port, const std::string& target, int connections, do
       Die("send failed");
     }
   };
-  const double cpu0 = ProcessCpuSeconds();
+  const double cpu0 = drivegw::bench::ProcessCpuSeconds();
   const auto start = Clock::now();
   const auto end =
       start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
@@ -212,7 +204,7 @@ LoadResult RunLoad(uint16_t port, const std::string& target, int connections, do
     }
   }
   r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  r.cpu_s = ProcessCpuSeconds() - cpu0;
+  r.cpu_s = drivegw::bench::ProcessCpuSeconds() - cpu0;
   for (auto& c : conns) ::close(c.fd);
   return r;
 }
@@ -271,33 +263,14 @@ double CoreAndJsonCpuUs(drivegw::server::DriveServiceCore& core, int n) {
   return 1e6 * (thread_cpu() - cpu0) / n;
 }
 
-double LoadAverage() {
-  double l = 0;
-  if (FILE* f = std::fopen("/proc/loadavg", "r")) {
-    if (std::fscanf(f, "%lf", &l) != 1) l = 0;
-    std::fclose(f);
-  }
-  return l;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::atof(argv[1]) : 2.0;
   const int rounds = argc > 2 ? std::atoi(argv[2]) : 4;
   const int connections = argc > 3 ? std::atoi(argv[3]) : 16;
-  char tmpl[] = "/tmp/drivegw-bench-XXXXXX";
-  if (::mkdtemp(tmpl) == nullptr) return 1;
-  drivegw::server::GatewayOptions o;
-  o.config.listen.grpc = "127.0.0.1:0";
-  o.config.listen.http = "127.0.0.1:0";
-  o.config.data_dir = tmpl;
-  o.demo_first_port = 0;
-  o.demo_master_port = 0;
-  o.demo_can_port = static_cast<uint16_t>(20000 + ::getpid() % 20000);  // a bus of its own
-  auto gw = drivegw::server::Gateway::Start(std::move(o));
-  if (!gw.ok()) Die(std::string(gw.status().message()));
-  const uint16_t http_port = (*gw)->http_port();
+  drivegw::bench::DemoGateway gw;
+  const uint16_t http_port = gw->http_port();
 
   // The bare endpoint answers a body as long as the gateway's (status JSON of x1 now).
   LoadResult probe = RunLoad(http_port, "/v1/drives/x1", 1, 0.0);
@@ -308,18 +281,17 @@ int main(int argc, char** argv) {
   RunLoad(bare.port(), "/v1/drives/x1", connections, std::min(0.2, seconds));
   RunLoad(http_port, "/v1/drives/x1", connections, std::min(0.2, seconds));
   std::vector<LoadResult> bare_runs, gw_runs, fixed_runs;
-  const double load_before = LoadAverage();
+  const double load_before = drivegw::bench::LoadAverage();
   for (int r = 0; r < rounds; ++r) {
     bare_runs.push_back(RunLoad(bare.port(), "/v1/drives/x1", connections, seconds));
     gw_runs.push_back(RunLoad(http_port, "/v1/drives/x1", connections, seconds));
     // The gateway's HTTP layer alone: /readyz is a fixed route answered without gRPC.
     fixed_runs.push_back(RunLoad(http_port, "/readyz", connections, seconds / 2));
   }
-  const double load_after = LoadAverage();
+  const double load_after = drivegw::bench::LoadAverage();
   const Summary b = Summarize(bare_runs), g = Summarize(gw_runs), f = Summarize(fixed_runs);
-  const double core_json_us = CoreAndJsonCpuUs((*gw)->core(), std::max(1000, rounds * 5000));
-  (*gw)->Stop();
-  std::filesystem::remove_all(tmpl);
+  const double core_json_us = CoreAndJsonCpuUs(gw->core(), std::max(1000, rounds * 5000));
+  gw.Stop();
 
   const double ratio = b.rps > 0 ? g.rps / b.rps : 0;
   std::printf("P4 REST GET /v1/drives/x1, %d keep-alive connections, %d x %.1f s, body %zu B\n",

@@ -30,6 +30,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench/demo_gateway.h"
 #include "bench/report.h"
 #include "drivegw/v1/drive.grpc.pb.h"
 #include "server/core/drive_service.h"
@@ -128,15 +129,6 @@ class Watcher final : public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::Byt
   grpc::Status status_;
 };
 
-double ProcessCpuSeconds() {
-  rusage u{};
-  ::getrusage(RUSAGE_SELF, &u);
-  auto s = [](const timeval& t) {
-    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
-  };
-  return s(u.ru_utime) + s(u.ru_stime);
-}
-
 struct RoundResult {
   double cpu_s = 0;   // process CPU (server, client, x1's drive and simulator) within the window
   long messages = 0;  // within the window, all streams
@@ -177,9 +169,9 @@ RoundResult RunStreams(uint16_t port, int streams, int channels, double seconds,
   const auto t1 =
       t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
   std::this_thread::sleep_until(t0);
-  const double cpu0 = ProcessCpuSeconds();
+  const double cpu0 = drivegw::bench::ProcessCpuSeconds();
   std::this_thread::sleep_until(t1);
-  const double cpu1 = ProcessCpuSeconds();
+  const double cpu1 = drivegw::bench::ProcessCpuSeconds();
   std::this_thread::sleep_until(t1 + 50ms);
   for (auto& w : watchers) w->Cancel();
   {
@@ -281,15 +273,6 @@ class Mover {
   std::thread thread_;
 };
 
-double LoadAverage() {
-  double l = 0;
-  if (FILE* f = std::fopen("/proc/loadavg", "r")) {
-    if (std::fscanf(f, "%lf", &l) != 1) l = 0;
-    std::fclose(f);
-  }
-  return l;
-}
-
 void Accumulate(RoundResult& sum, const RoundResult& r) {
   sum.messages += r.messages;
   sum.cpu_s += r.cpu_s;
@@ -308,17 +291,7 @@ int main(int argc, char** argv) {
   const double seconds = argc > 2 ? std::atof(argv[2]) : 5.0;
   const int rounds = argc > 3 ? std::atoi(argv[3]) : 2;
   const int channels = std::max(1, argc > 4 ? std::atoi(argv[4]) : 4);
-  char tmpl[] = "/tmp/drivegw-bench-XXXXXX";
-  if (::mkdtemp(tmpl) == nullptr) return 1;
-  drivegw::server::GatewayOptions o;
-  o.config.listen.grpc = "127.0.0.1:0";
-  o.config.listen.http = "127.0.0.1:0";
-  o.config.data_dir = tmpl;
-  o.demo_first_port = 0;
-  o.demo_master_port = 0;
-  o.demo_can_port = static_cast<uint16_t>(20000 + ::getpid() % 20000);  // a bus of its own
-  auto gw = drivegw::server::Gateway::Start(std::move(o));
-  if (!gw.ok()) Die(std::string(gw.status().message()));
+  drivegw::bench::DemoGateway gw;
 
   EmptyWatchService empty;
   grpc::ServerBuilder b;
@@ -330,20 +303,19 @@ int main(int argc, char** argv) {
 
   RoundResult base, gate;
   base.window_s = gate.window_s = 0;
-  const double load_before = LoadAverage();
+  const double load_before = drivegw::bench::LoadAverage();
   {
-    Mover mover((*gw)->core());
+    Mover mover(gw->core());
     for (int r = 0; r < rounds; ++r) {
       Accumulate(base,
                  RunStreams(static_cast<uint16_t>(bare_port), streams, channels, seconds, false));
-      Accumulate(gate, RunStreams((*gw)->grpc_port(), streams, channels, seconds, true));
+      Accumulate(gate, RunStreams(gw->grpc_port(), streams, channels, seconds, true));
     }
     if (mover.moves() < 2) Die("x1 did not move");
   }
-  const double load_after = LoadAverage();
+  const double load_after = drivegw::bench::LoadAverage();
   bare->Shutdown(std::chrono::system_clock::now() + 2s);
-  (*gw)->Stop();
-  std::filesystem::remove_all(tmpl);
+  gw.Stop();
 
   const double base_rate =
       base.window_s > 0 ? static_cast<double>(base.messages) / base.window_s : 0;
