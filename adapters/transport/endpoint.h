@@ -26,6 +26,11 @@ struct Endpoint {
   // InvalidArgument naming the host otherwise.
   static absl::StatusOr<Endpoint> Parse(std::string_view host, uint16_t port);
 
+  // Parse, else a host name resolved to its first IPv4 address (getaddrinfo: /etc/hosts, DNS,
+  // a compose service name). Blocks while resolving: call it when a drive is activated, not on
+  // a hot path. Unavailable naming the host when the name does not resolve.
+  static absl::StatusOr<Endpoint> Resolve(std::string_view host, uint16_t port);
+
   friend bool operator==(const Endpoint&, const Endpoint&) = default;
 
   template <typename H>

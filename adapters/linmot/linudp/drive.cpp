@@ -162,9 +162,11 @@ std::string LinMotUdpDrive::endpoint() const {
 
 absl::Status LinMotUdpDrive::DoActivate() {
   const LinUdpConfig& c = *config().linudp;
-  auto remote = transport::Endpoint::Parse(c.host, c.port);
+  // A host name is resolved at every activation: a drive (or container) may change address.
+  auto remote = transport::Endpoint::Resolve(c.host, c.port);
   if (!remote.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat("linudp.host: ", remote.status().message()));
+    return absl::Status(remote.status().code(),
+                        absl::StrCat("linudp.host: ", remote.status().message()));
   }
   auto local = transport::Endpoint::Parse(c.bind_host, c.master_port);
   if (!local.ok()) {

@@ -16,8 +16,9 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateLinMotUdpDrive(const DriveConfig& c
                      "' needs the LinUDP section: host, port, master_port, ...)"));
   }
   const LinUdpConfig& c = *config.linudp;
-  if (auto e = transport::Endpoint::Parse(c.host, c.port); !e.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(where, ".linudp.host: ", e.status().message()));
+  // A name is resolved at activation (Endpoint::Resolve); here only an empty host is refused.
+  if (c.host.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ".linudp.host: must not be empty"));
   }
   if (c.port == 0) {
     return absl::InvalidArgumentError(absl::StrCat(where, ".linudp.port: 0 is not a drive port"));

@@ -3,6 +3,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <array>
 #include <chrono>
@@ -60,6 +61,31 @@ TEST(EndpointParse, NotNumericIpv4_InvalidArgumentNamesHost) {
     EXPECT_EQ(e.status().code(), absl::StatusCode::kInvalidArgument);
     EXPECT_THAT(e.status().message(), HasSubstr(std::string("'") + host + "'"));
   }
+}
+
+TEST(EndpointResolve, NumericAndLocalhost_AsParse) {
+  EXPECT_EQ(*Endpoint::Resolve("192.168.1.17", 7), *Endpoint::Parse("192.168.1.17", 7));
+  EXPECT_EQ(*Endpoint::Resolve("localhost", 8), (Endpoint{Endpoint::kLoopback, 8}));
+}
+
+TEST(EndpointResolve, HostNameFromTheResolver_FirstIpv4) {
+  // The machine's own name is in /etc/hosts on Debian (and in every Docker container): it goes
+  // through getaddrinfo like a compose service name goes through Docker's DNS.
+  char name[256] = {};
+  ASSERT_EQ(gethostname(name, sizeof(name) - 1), 0);
+  auto e = Endpoint::Resolve(name, 49360);
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_NE(e->ipv4, Endpoint::kAny) << e->ToString();
+  EXPECT_EQ(e->port, 49360);
+}
+
+TEST(EndpointResolve, UnknownName_UnavailableNamingHost) {
+  // RFC 6761: .invalid never resolves.
+  auto e = Endpoint::Resolve("no-such-drive.invalid", 49360);
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(e.status().message(), HasSubstr("'no-such-drive.invalid'"));
+  EXPECT_EQ(Endpoint::Resolve("", 1).status().code(), absl::StatusCode::kInvalidArgument);
 }
 
 TEST(Endpoint, EqualityAndHash_UseAddressAndPort) {

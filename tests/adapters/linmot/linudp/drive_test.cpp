@@ -507,9 +507,12 @@ TEST(CreateLinMotUdpDrive, MissingOrBadConfig_InvalidArgumentNamingField) {
   EXPECT_EQ(missing.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(missing.status().message(), HasSubstr("drive 'x9'.linudp"));
   c.linudp = LinUdpConfig{};
-  c.linudp->host = "drive.local";
+  c.linudp->host = "";
   EXPECT_THAT(CreateLinMotUdpDrive(c, SteadyClock::Instance()).status().message(),
-              HasSubstr(".linudp.host"));
+              HasSubstr(".linudp.host: must not be empty"));
+  // A host name is accepted here and resolved when the drive is activated (Endpoint::Resolve).
+  c.linudp->host = "drive.local";
+  EXPECT_TRUE(CreateLinMotUdpDrive(c, SteadyClock::Instance()).ok());
   c.linudp = LinUdpConfig{};
   c.linudp->cycle = 0ms;
   EXPECT_THAT(CreateLinMotUdpDrive(c, SteadyClock::Instance()).status().message(),
