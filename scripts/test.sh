@@ -11,3 +11,7 @@ ctest --test-dir "${BUILD_DIR:-build}" --output-on-failure -j 2 --timeout 300
 echo "== SocketCAN in qemu =="
 # A Debian kernel in a TCG VM with vcan0 (this kernel has no CAN); ends "socketcan-vm: N passed, M failed".
 tests/socketcan-vm/run.sh "${BUILD_DIR:-build}"
+echo "== Docker image and compose demo =="
+# A private dockerd builds docker/Dockerfile and runs docker/compose.yaml; one move per family
+# through REST from the host (tests/docker/run.sh; ends "docker: N passed, M failed").
+tests/docker/run.sh

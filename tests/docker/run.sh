@@ -101,8 +101,8 @@ image_checks() {
   grep -q "\"org.opencontainers.image.revision\":\"$REVISION\"" <<<"$labels" ||
     { echo "docker: revision label is not $REVISION" >&2; return 1; }
   # The programs start in the runtime image (every shared library is there).
-  docker run --rm --entrypoint drivegw-sim "$TAG" --help >/dev/null &&
-    docker run --rm "$TAG" --help >/dev/null
+  docker run --rm --entrypoint drivegw-sim "$TAG" --help >/dev/null 2>&1 &&
+    docker run --rm "$TAG" --help >/dev/null 2>&1
 }
 step "runtime image: < 200 MB, non-root, OCI labels, programs start" image_checks || true
 
@@ -145,4 +145,6 @@ compose_down() {
 }
 step "docker-compose down -v, database intact" compose_down || true
 docker image rm "$TAG" >/dev/null 2>&1 || true
+# Bounded cache across runs (old layers; the ccache mount stays below CCACHE_MAXSIZE anyway).
+docker builder prune -f --keep-storage 6gb >/dev/null 2>&1 || true
 finish
