@@ -51,7 +51,10 @@ def collect(mode, out, logs):
 
 
 def fmt(v):
-    return f"{v:.3g}" if isinstance(v, float) else str(v)
+    # Four significant digits, never an exponent: "1.998" must not print as "2" next to "=2".
+    if not isinstance(v, float):
+        return str(v)
+    return f"{v:.0f}" if abs(v) >= 1000 else f"{v:.4g}"
 
 
 def table(out, doc_path):
