@@ -220,7 +220,10 @@ TEST_F(LeaseGrpcTest, Rest_LeaseHeaderForwarded) {
   const DriveStatus moved = test_support::WaitStatus(
       *drive_,
       [&](const DriveStatus& s) {
-        return s.state == DriveState::kEnabled && std::abs(s.position_mm - start_mm - 2) < 1e-3;
+        // Both: near the end the actual position is within 1 µm one status before the last
+        // demand step (1.999 mm) arrives (a CI run caught that snapshot).
+        return s.state == DriveState::kEnabled && std::abs(s.position_mm - start_mm - 2) < 1e-3 &&
+               std::abs(s.demand_position_mm - start_mm - 2) < 1e-6;
       },
       10s);
   EXPECT_NEAR(moved.position_mm, start_mm + 2, 1e-3);
