@@ -97,6 +97,10 @@ int main(int argc, char** argv) {
     }
   }
 
+  if (absl::Status level = drivegw::config::CheckLogLevelVariables(env); !level.ok()) {
+    std::fprintf(stderr, "drivegw: %s\n", std::string(level.message()).c_str());
+    return 2;
+  }
   const std::string config_path = drivegw::config::ResolveConfigPath(config_flag, env);
   if (config_flag.empty() && !config_path.empty()) {
     drivegw::log::Info(

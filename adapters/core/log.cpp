@@ -22,14 +22,12 @@ const char* LevelVariable() {
   return nullptr;
 }
 
+// An invalid value falls back to info here; the gateway refuses to start with it
+// (config::CheckLogLevelVariables), so only tools without that check ever run on the fallback.
 Level LevelFromEnv() {
   const char* v = LevelVariable();
   if (v == nullptr) return Level::kInfo;
-  if (std::strcmp(v, "debug") == 0) return Level::kDebug;
-  if (std::strcmp(v, "warn") == 0) return Level::kWarn;
-  if (std::strcmp(v, "error") == 0) return Level::kError;
-  if (std::strcmp(v, "off") == 0) return Level::kOff;
-  return Level::kInfo;
+  return ParseLevel(v).value_or(Level::kInfo);
 }
 
 std::atomic<Level>& Threshold() {
@@ -39,16 +37,30 @@ std::atomic<Level>& Threshold() {
 
 const char* Name(Level level) {
   switch (level) {
-    case Level::kDebug: return "debug";
-    case Level::kInfo: return "info";
-    case Level::kWarn: return "warn";
-    case Level::kError: return "error";
-    case Level::kOff: break;
+    case Level::kDebug:
+      return "debug";
+    case Level::kInfo:
+      return "info";
+    case Level::kWarn:
+      return "warn";
+    case Level::kError:
+      return "error";
+    case Level::kOff:
+      break;
   }
   return "off";
 }
 
 }  // namespace
+
+std::optional<Level> ParseLevel(std::string_view name) {
+  if (name == "debug") return Level::kDebug;
+  if (name == "info") return Level::kInfo;
+  if (name == "warn") return Level::kWarn;
+  if (name == "error") return Level::kError;
+  if (name == "off") return Level::kOff;
+  return std::nullopt;
+}
 
 void SetLevel(Level level) { Threshold().store(level); }
 Level GetLevel() { return Threshold().load(); }

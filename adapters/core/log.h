@@ -2,6 +2,7 @@
 // error = an operator must act; warn = recovered; info = lifecycle; debug = per command.
 #pragma once
 
+#include <optional>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -13,6 +14,8 @@ enum class Level { kDebug = 0, kInfo = 1, kWarn = 2, kError = 3, kOff = 4 };
 // Global threshold; default kInfo, DGW_LOG_LEVEL=debug|info|warn|error|off overrides at start.
 void SetLevel(Level level);
 Level GetLevel();
+// "debug", "info", "warn", "error", "off" (exactly, lower case); anything else is nullopt.
+std::optional<Level> ParseLevel(std::string_view name);
 bool Enabled(Level level);
 
 // Writes "<utc time> <level> <event> <fields>" to stderr as one write (thread-safe).

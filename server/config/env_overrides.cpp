@@ -33,6 +33,18 @@ std::vector<ConfigOverride> OverridesFromEnvironment(const EnvLookup& env,
   return out;
 }
 
+absl::Status CheckLogLevelVariables(const EnvLookup& env) {
+  for (const char* name : {"DRIVEGW_LOG_LEVEL", "DGW_LOG_LEVEL"}) {
+    const char* value = env(name);
+    if (value == nullptr || *value == '\0') continue;
+    if (!log::ParseLevel(value).has_value()) {
+      return absl::InvalidArgumentError(std::string(name) + ": '" + value +
+                                        "' is not a log level (debug, info, warn, error, off)");
+    }
+  }
+  return absl::OkStatus();
+}
+
 std::string ResolveConfigPath(const std::string& config_flag, const EnvLookup& env) {
   if (!config_flag.empty()) return config_flag;
   const char* value = env(kConfigPathVariable);

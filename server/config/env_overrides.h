@@ -45,6 +45,11 @@ inline constexpr EnvVariable kEnvVariables[] = {
 std::vector<ConfigOverride> OverridesFromEnvironment(
     const EnvLookup& env, std::span<const EnvVariable> table = kEnvVariables);
 
+// DRIVEGW_LOG_LEVEL and its alias DGW_LOG_LEVEL, when set and not empty, must name a level
+// (debug, info, warn, error, off): a typo would otherwise silently log at info (issue 11,
+// bad-input inventory). InvalidArgument names the variable, the value and the allowed values.
+absl::Status CheckLogLevelVariables(const EnvLookup& env);
+
 // `--config` wins; otherwise DRIVEGW_CONFIG when set and not empty; "" = no file (demo).
 std::string ResolveConfigPath(const std::string& config_flag, const EnvLookup& env);
 

@@ -273,5 +273,26 @@ TEST(LogOverrides_Values, ShownExceptSecret) {
   EXPECT_THAT(log, Not(HasSubstr("unlisted")));
 }
 
+// A mistyped level must stop the start with the variable named, not log silently at info.
+TEST(EnvOverridesTest, LogLevelVariablesMustNameALevel) {
+  for (const char* level : {"debug", "info", "warn", "error", "off"}) {
+    EXPECT_TRUE(CheckLogLevelVariables(FakeEnv{{"DRIVEGW_LOG_LEVEL", level}}.Lookup()).ok())
+        << level;
+  }
+  EXPECT_TRUE(CheckLogLevelVariables(FakeEnv{}.Lookup()).ok());
+  // Empty = unset (compose files), as for every DRIVEGW_* variable.
+  EXPECT_TRUE(CheckLogLevelVariables(FakeEnv{{"DRIVEGW_LOG_LEVEL", ""}}.Lookup()).ok());
+
+  const absl::Status bad =
+      CheckLogLevelVariables(FakeEnv{{"DRIVEGW_LOG_LEVEL", "verbose"}}.Lookup());
+  EXPECT_EQ(bad.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(bad.message(), HasSubstr("DRIVEGW_LOG_LEVEL: 'verbose' is not a log level"));
+  EXPECT_THAT(bad.message(), HasSubstr("debug, info, warn, error, off"));
+  // Case matters (the façade compares exactly), and the older alias is checked too.
+  EXPECT_FALSE(CheckLogLevelVariables(FakeEnv{{"DRIVEGW_LOG_LEVEL", "INFO"}}.Lookup()).ok());
+  const absl::Status alias = CheckLogLevelVariables(FakeEnv{{"DGW_LOG_LEVEL", "warning"}}.Lookup());
+  EXPECT_THAT(alias.message(), HasSubstr("DGW_LOG_LEVEL: 'warning'"));
+}
+
 }  // namespace
 }  // namespace drivegw::config
