@@ -3,7 +3,8 @@
 // against a bare Beast endpoint in the same binary (same io_context threading as server/rest:
 // 2 threads, a strand per connection, request_parser + string_body) answering a fixed body of the
 // same size. One load generator for both: one thread, raw non-blocking sockets, poll(), one
-// request in flight per connection (closed loop), pre-built request bytes.
+// request in flight per connection (closed loop), pre-built request bytes. GET /v1/drives/x1 takes
+// the direct read path (decision 1331); a second gateway measures the in-process gRPC path too.
 // Run: build/bench/rest_status_bench [seconds per round = 2] [rounds = 4] [connections = 16]
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -288,10 +289,27 @@ int main(int argc, char** argv) {
     // The gateway's HTTP layer alone: /readyz is a fixed route answered without gRPC.
     fixed_runs.push_back(RunLoad(http_port, "/readyz", connections, seconds / 2));
   }
-  const double load_after = drivegw::bench::LoadAverage();
   const Summary b = Summarize(bare_runs), g = Summarize(gw_runs), f = Summarize(fixed_runs);
   const double core_json_us = CoreAndJsonCpuUs(gw->core(), std::max(1000, rounds * 5000));
   gw.Stop();
+
+  // Informational: the same request over the in-process gRPC call of decision 501 (direct reads
+  // off, decision 1331), on a second gateway started now, interleaved with the bare endpoint
+  // again so the two ratios compare like with like.
+  std::vector<LoadResult> bare2_runs, grpc_runs;
+  {
+    drivegw::bench::DemoGateway gw_grpc(/*rest_direct_reads=*/false, /*can_offset=*/3);
+    const uint16_t grpc_http_port = gw_grpc->http_port();
+    RunLoad(grpc_http_port, "/v1/drives/x1", connections, std::min(0.2, seconds));
+    for (int r = 0; r < rounds; ++r) {
+      bare2_runs.push_back(RunLoad(bare.port(), "/v1/drives/x1", connections, seconds / 2));
+      grpc_runs.push_back(RunLoad(grpc_http_port, "/v1/drives/x1", connections, seconds / 2));
+    }
+  }
+  const double load_after = drivegw::bench::LoadAverage();
+  const Summary b2 = Summarize(bare2_runs), gg = Summarize(grpc_runs);
+  const double grpc_ratio = b2.rps > 0 ? gg.rps / b2.rps : 0;
+  const double fixed_ratio = f.rps > 0 ? g.rps / f.rps : 0;
 
   const double ratio = b.rps > 0 ? g.rps / b.rps : 0;
   std::printf("P4 REST GET /v1/drives/x1, %d keep-alive connections, %d x %.1f s, body %zu B\n",
@@ -306,8 +324,14 @@ int main(int argc, char** argv) {
               f.rps, f.p50, f.p99, f.n, f.cpu_us);
   std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  core GetDrive + JSON only (one thread)", "", "",
               "", "", core_json_us);
-  std::printf("ratio gateway/bare %.2f (target >= 0.7); non-200: %ld; load %.2f -> %.2f\n", ratio,
-              g.errors + b.errors, load_before, load_after);
+  std::printf("%-44s %10.0f %9.1f %9.1f %9ld %9.1f\n", "  over in-process gRPC (decision 501)",
+              gg.rps, gg.p50, gg.p99, gg.n, gg.cpu_us);
+  std::printf("%-44s %10.0f %9.1f %9.1f %9ld %9.1f\n", "  bare Beast endpoint, beside the gRPC rounds",
+              b2.rps, b2.p50, b2.p99, b2.n, b2.cpu_us);
+  std::printf("ratio gateway/bare %.2f (target >= 0.7); gateway/own fixed route %.2f; "
+              "gRPC path/bare %.2f; non-200: %ld; load %.2f -> %.2f\n",
+              ratio, fixed_ratio, grpc_ratio, g.errors + b.errors + gg.errors + b2.errors,
+              load_before, load_after);
   drivegw::bench::Report({"P4",
                           "rest_status_ratio",
                           ratio,
@@ -325,9 +349,14 @@ int main(int argc, char** argv) {
                            {"bare_cpu_us_per_req", b.cpu_us},
                            {"http_layer_only_cpu_us_per_req", f.cpu_us},
                            {"core_get_drive_and_json_cpu_us", core_json_us},
+                           {"ratio_to_own_fixed_route", fixed_ratio},
+                           {"grpc_path_rps", gg.rps},
+                           {"grpc_path_ratio", grpc_ratio},
+                           {"grpc_path_cpu_us_per_req", gg.cpu_us},
+                           {"grpc_path_p50_us", gg.p50},
                            {"connections", connections},
                            {"body_bytes", probe.body_bytes},
                            {"requests", g.n},
                            {"load_avg", load_after}}});
-  return g.errors + b.errors == 0 ? 0 : 1;
+  return g.errors + b.errors + gg.errors + b2.errors == 0 ? 0 : 1;
 }

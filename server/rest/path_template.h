@@ -44,6 +44,9 @@ class PathTemplate {
   // template order, or nullopt when the path does not fit.
   std::optional<std::vector<PathBinding>> Match(std::string_view path) const;
 
+  // Match(path).has_value(), without allocating.
+  bool Fits(std::string_view path) const;
+
   const std::string& text() const { return text_; }
   const std::vector<Segment>& segments() const { return segments_; }
   const std::vector<Variable>& variables() const { return variables_; }

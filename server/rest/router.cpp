@@ -296,6 +296,21 @@ absl::StatusOr<std::string> ResponseJson(const pb::Message& msg, const std::stri
   return json;
 }
 
+// What a finished unary call answers, for the gRPC and the direct path alike: the mapped
+// error, or `out` (or its response_body part) as JSON.
+HttpResponse UnaryResponse(const grpc::Status& status, const pb::Message& out,
+                           const std::string& response_body) {
+  if (!status.ok()) return ErrorFromGrpc(status);
+  auto json = ResponseJson(out, response_body);
+  if (!json.ok()) return ErrorResponse(500, kInternal, std::string(json.status().message()));
+  return JsonResponse(200, *std::move(json));
+}
+
+std::unique_ptr<pb::Message> NewMessage(const pb::Descriptor* type) {
+  return std::unique_ptr<pb::Message>(
+      pb::MessageFactory::generated_factory()->GetPrototype(type)->New());
+}
+
 }  // namespace
 
 // --- error helpers --------------------------------------------------------------------------
@@ -611,6 +626,7 @@ absl::Status AddRoutes(const pb::MethodDescriptor* m, const google::api::HttpRul
                                                      " must name a singular message field"));
     }
   }
+  route.specificity = route.path.Specificity();
   route.method = m;
   route.grpc_path = absl::StrCat("/", m->service()->full_name(), "/", m->name());
   route.server_streaming = m->server_streaming();
@@ -656,6 +672,22 @@ absl::StatusOr<std::unique_ptr<Router>> Router::Create(RouterOptions options) {
           !s.ok()) {
         return s;
       }
+    }
+  }
+  for (const auto& [path, handler] : options.direct_unary) {
+    bool found = false;
+    for (Route& route : routes) {
+      if (route.grpc_path != path) continue;
+      if (route.server_streaming || !handler) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("rest router: direct handler for ", path, " must be a unary method's"));
+      }
+      route.direct = handler;
+      found = true;
+    }
+    if (!found) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("rest router: direct handler for ", path, ": no route has that method"));
     }
   }
   return std::unique_ptr<Router>(new Router(std::move(options), std::move(routes)));
@@ -710,7 +742,7 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
       return;
     }
     const std::string& method = request.method;
-    if (auto fixed = options_.fixed_routes.find(std::string(path));
+    if (auto fixed = options_.fixed_routes.find(path);
         fixed != options_.fixed_routes.end()) {
       if (method != "GET") {
         auto r = ErrorResponse(
@@ -742,32 +774,36 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
 
     // The most specific matching template wins; when it belongs to another method, 405
     // (Allow lists the methods whose templates match at that rank).
+    // Matching routes are only ranked here (Route::path.Fits allocates nothing); the winner's
+    // variables are bound once, below.
     const Route* best = nullptr;
-    std::vector<PathBinding> best_bindings;
     int best_score = -1;
-    std::map<std::string, int> method_scores;
+    int top_score = -1;
     for (const Route& route : routes_) {
-      auto bindings = route.path.Match(path);
-      if (!bindings) continue;
-      const int score = route.path.Specificity();
-      int& top = method_scores.try_emplace(route.http_method, -1).first->second;
-      top = std::max(top, score);
+      if (!route.path.Fits(path)) continue;
+      const int score = route.specificity;
+      top_score = std::max(top_score, score);
       if (route.http_method == method && score > best_score) {
         best = &route;
         best_score = score;
-        best_bindings = *std::move(bindings);
       }
     }
-    int top_score = -1;
-    for (const auto& [m, score] : method_scores) top_score = std::max(top_score, score);
     if (best != nullptr && best_score == top_score) {
-      HandleApi(*best, std::move(best_bindings), query, request, sink);
+      auto bindings = best->path.Match(path);
+      if (!bindings) {  // Fits and Match disagree: our bug
+        sink->OnResponse(ErrorResponse(500, kInternal, "rest router: path match inconsistent"));
+        return;
+      }
+      HandleApi(*best, *std::move(bindings), query, request, sink);
       return;
     }
-    if (!method_scores.empty()) {
-      std::vector<std::string> allowed;
-      for (const auto& [m, score] : method_scores) {
-        if (score == top_score) allowed.push_back(m);
+    if (top_score >= 0) {
+      // Allow: the methods whose templates match at the top rank, sorted and unique.
+      std::set<std::string> allowed;
+      for (const Route& route : routes_) {
+        if (route.specificity == top_score && route.path.Fits(path)) {
+          allowed.insert(route.http_method);
+        }
       }
       const std::string list = absl::StrJoin(allowed, ", ");
       auto r = ErrorResponse(
@@ -894,6 +930,11 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
     }
   }
 
+  if (route.direct) {
+    HandleDirect(route, *msg, request, sink);
+    return;
+  }
+
   std::string bytes;
   if (!msg->SerializeToString(&bytes)) {
     sink->OnResponse(ErrorResponse(500, kInternal, "request serialization failed"));
@@ -911,18 +952,28 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
   const pb::Descriptor* output = route.method->output_type();
   auto finish = [output, response_body = route.response_body](
                     const grpc::Status& status, const grpc::ByteBuffer& buffer) -> HttpResponse {
-    if (!status.ok()) return ErrorFromGrpc(status);
-    std::unique_ptr<pb::Message> out(
-        pb::MessageFactory::generated_factory()->GetPrototype(output)->New());
-    if (!FromByteBuffer(buffer, out.get())) {
+    std::unique_ptr<pb::Message> out = NewMessage(output);
+    if (status.ok() && !FromByteBuffer(buffer, out.get())) {
       return ErrorResponse(500, kInternal, absl::StrCat("cannot parse ", output->full_name()));
     }
-    auto json = ResponseJson(*out, response_body);
-    if (!json.ok()) return ErrorResponse(500, kInternal, std::string(json.status().message()));
-    return JsonResponse(200, *std::move(json));
+    return UnaryResponse(status, *out, response_body);
   };
   UnaryCall::Start(std::make_shared<UnaryCall>(std::move(ctx), ToByteBuffer(bytes), sink, finish),
                    stub, route.grpc_path, inflight_);
+}
+
+void Router::HandleDirect(const Route& route, const pb::Message& in, const HttpRequest& request,
+                          const std::shared_ptr<ResponseSink>& sink) {
+  {
+    std::lock_guard lock(inflight_->mu);  // the same 503 as a gRPC call refused by Inflight::Add
+    if (inflight_->stopping) {
+      sink->OnResponse(ErrorResponse(503, kUnavailable, "REST server is stopping"));
+      return;
+    }
+  }
+  std::unique_ptr<pb::Message> out = NewMessage(route.method->output_type());
+  const grpc::Status status = route.direct(request, in, out.get());
+  sink->OnResponse(UnaryResponse(status, *out, route.response_body));
 }
 
 void Router::HandleHealth(const std::shared_ptr<ResponseSink>& sink) noexcept {

@@ -64,6 +64,11 @@ bool IsParseError(const error_code& ec) {
   return ec.category() == http::make_error_code(http::error::bad_target).category();
 }
 
+// The Exchange whose request the router is handling on this thread right now (set around
+// Router::Handle in Session::OnRead, which runs on the session's strand): a response it gets
+// inline is stored directly instead of being posted back to the strand it is already on.
+thread_local const void* t_inline_exchange = nullptr;
+
 // State every session reads; owned by RestServer::Impl, which outlives the sessions.
 struct Shared {
   RestOptions options;
@@ -303,7 +308,11 @@ class Session final : public SessionBase {
     const uint64_t id = slot.id;
     slots_.push_back(std::move(slot));
     UpdateIdleDeadline();
-    shared_.router->Handle(std::move(request), std::make_shared<Exchange>(Self(), id));
+    auto exchange = std::make_shared<Exchange>(Self(), id);
+    t_inline_exchange = exchange.get();
+    shared_.router->Handle(std::move(request), std::move(exchange));
+    t_inline_exchange = nullptr;
+    Pump();    // an answer given inline (fixed routes, direct reads, early errors)
     DoRead();  // read ahead (pipelining) and notice a client that goes away
   }
 
@@ -378,20 +387,23 @@ class Session final : public SessionBase {
 
   bool KeepAlive(const Slot& s) const { return s.keep_alive && !peer_done_ && accepting_; }
 
-  void WriteWhole(Slot& s, const HttpResponse& r) {
+  // Takes r.body: the slot is done with once written.
+  void WriteWhole(Slot& s, HttpResponse& r) {
     auto res = std::make_shared<http::response<http::string_body>>(
         static_cast<http::status>(r.status), s.version);
     res->set(http::field::server, "drivegw");
     res->set(http::field::content_type, r.content_type);
     for (const auto& [name, value] : r.headers) res->set(name, value);
     res->keep_alive(KeepAlive(s));
-    res->body() = r.body;
+    res->body() = std::move(r.body);
     res->prepare_payload();
-    log::Debug("rest.response", log::Fields()
-                                    .Add("peer", peer_)
-                                    .Add("method", s.method)
-                                    .Add("target", s.target)
-                                    .Add("status", r.status));
+    if (log::Enabled(log::Level::kDebug)) {  // the fields cost more than the check
+      log::Debug("rest.response", log::Fields()
+                                      .Add("peer", peer_)
+                                      .Add("method", s.method)
+                                      .Add("target", s.target)
+                                      .Add("status", r.status));
+    }
     StartWriteDeadline();
     http::async_write(stream_, *res, [self = Self(), res](error_code ec, size_t) {
       self->OnWritten(ec, /*done=*/true, !res->keep_alive());
@@ -518,6 +530,10 @@ class Session final : public SessionBase {
     Exchange(std::shared_ptr<Session> session, uint64_t id)
         : session_(std::move(session)), id_(id) {}
     void OnResponse(HttpResponse response) noexcept override {
+      if (t_inline_exchange == this) {  // inside Handle, on the strand: OnRead pumps next
+        if (Slot* s = session_->Find(id_)) s->response = std::move(response);
+        return;
+      }
       Post([s = session_, id = id_, r = std::move(response)]() mutable {
         s->OnResponse(id, std::move(r));
       });
@@ -618,6 +634,7 @@ absl::StatusOr<std::unique_ptr<RestServer>> RestServer::Start(RestOptions option
   router_options.static_dir = options.static_dir;
   router_options.web_assets = options.web_assets;
   router_options.fixed_routes = options.fixed_routes;
+  router_options.direct_unary = options.direct_unary;
   auto router = Router::Create(std::move(router_options));
   if (!router.ok()) return router.status();
 
