@@ -1,0 +1,287 @@
+// The direct proto -> JSON walk (json_print.h). What it prints follows protobuf 3.21's
+// MessageToJsonString (util/internal/json_objectwriter.cc, protostream_objectsource.cc) as
+// observed and proven by tests/server/rest/json_print_test.cpp over randomly filled messages of
+// every drivegw.v1 type: fields in declaration order except set Timestamps and wrappers, which
+// come last (see AppendMessage), unset singular messages left out, unset
+// primitives and empty lists printed, doubles as "%.15g" (or "%.17g" when that does not read
+// back) with NaN/Infinity quoted, 64-bit integers quoted, enums by name (unknown numbers bare),
+// Timestamps as RFC 3339 UTC with 0, 3, 6 or 9 fractional digits.
+#include "server/rest/json_print.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include "google/protobuf/descriptor.h"
+#include "google/protobuf/message.h"
+#include "google/protobuf/util/json_util.h"
+
+namespace drivegw::rest {
+namespace {
+
+namespace pb = google::protobuf;
+using Cpp = pb::FieldDescriptor::CppType;
+
+// Strings the walk prints itself: printable ASCII that JSON and protobuf's escaper leave as
+// is. Anything else (quotes, backslash, '<' and '>' which protobuf writes as \u003c/\u003e,
+// control characters, UTF-8) goes to protobuf.
+bool AppendString(const std::string& s, std::string* out) {
+  for (const char c : s) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u > 0x7e || c == '"' || c == '\\' || c == '<' || c == '>') return false;
+  }
+  out->push_back('"');
+  out->append(s);
+  out->push_back('"');
+  return true;
+}
+
+// The number text must be plain C-locale (a locale's decimal comma goes to protobuf, which
+// delocalises it).
+bool PlainNumber(const char* text) {
+  for (const char* p = text; *p != '\0'; ++p) {
+    const char c = *p;
+    if (!((c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.' || c == 'e')) return false;
+  }
+  return true;
+}
+
+// protobuf SimpleDtoa: "%.15g", or "%.17g" when that does not read back; non-finite quoted.
+bool AppendDouble(double v, std::string* out) {
+  if (std::isnan(v)) {
+    out->append("\"NaN\"");
+    return true;
+  }
+  if (std::isinf(v)) {
+    out->append(v > 0 ? "\"Infinity\"" : "\"-Infinity\"");
+    return true;
+  }
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.*g", DBL_DIG, v);
+  if (std::strtod(buf, nullptr) != v) std::snprintf(buf, sizeof buf, "%.*g", DBL_DIG + 2, v);
+  if (!PlainNumber(buf)) return false;
+  out->append(buf);
+  return true;
+}
+
+// protobuf SimpleFtoa: "%.6g", or "%.9g" when that does not read back as the same float.
+bool AppendFloat(float v, std::string* out) {
+  if (std::isnan(v)) {
+    out->append("\"NaN\"");
+    return true;
+  }
+  if (std::isinf(v)) {
+    out->append(v > 0 ? "\"Infinity\"" : "\"-Infinity\"");
+    return true;
+  }
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.*g", FLT_DIG, static_cast<double>(v));
+  if (std::strtof(buf, nullptr) != v) {
+    std::snprintf(buf, sizeof buf, "%.*g", FLT_DIG + 3, static_cast<double>(v));
+  }
+  if (!PlainNumber(buf)) return false;
+  out->append(buf);
+  return true;
+}
+
+template <typename T>
+void AppendInteger(T v, bool quoted, std::string* out) {
+  if (quoted) out->push_back('"');
+  out->append(std::to_string(v));
+  if (quoted) out->push_back('"');
+}
+
+// Days since 1970-01-01 -> civil date (proleptic Gregorian; H. Hinnant, "chrono-compatible
+// low-level date algorithms", days_from_civil inverse).
+void CivilFromDays(int64_t z, int64_t* y, unsigned* m, unsigned* d) {
+  z += 719468;
+  const int64_t era = (z >= 0 ? z : z - 146096) / 146097;
+  const auto doe = static_cast<unsigned>(z - era * 146097);
+  const unsigned yoe = (doe - doe / 1460 + doe / 36524 - doe / 146096) / 365;
+  const unsigned doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+  const unsigned mp = (5 * doy + 2) / 153;
+  *d = doy - (153 * mp + 2) / 5 + 1;
+  *m = mp < 10 ? mp + 3 : mp - 9;
+  *y = static_cast<int64_t>(yoe) + era * 400 + (*m <= 2 ? 1 : 0);
+}
+
+// google.protobuf.Timestamp as protobuf prints it; out-of-range values go to protobuf (which
+// refuses them).
+bool AppendTimestamp(const pb::Message& m, std::string* out) {
+  const pb::Descriptor* d = m.GetDescriptor();
+  const pb::Reflection* r = m.GetReflection();
+  const int64_t seconds = r->GetInt64(m, d->FindFieldByNumber(1));
+  const int32_t nanos = r->GetInt32(m, d->FindFieldByNumber(2));
+  constexpr int64_t kMin = -62135596800;  // 0001-01-01T00:00:00Z
+  constexpr int64_t kMax = 253402300799;  // 9999-12-31T23:59:59Z
+  if (seconds < kMin || seconds > kMax || nanos < 0 || nanos > 999999999) return false;
+  int64_t days = seconds / 86400;
+  int64_t rem = seconds % 86400;
+  if (rem < 0) {
+    rem += 86400;
+    --days;
+  }
+  int64_t year;
+  unsigned month, day;
+  CivilFromDays(days, &year, &month, &day);
+  char buf[48];
+  int n = std::snprintf(buf, sizeof buf, "\"%04" PRId64 "-%02u-%02uT%02d:%02d:%02d", year, month,
+                        day, static_cast<int>(rem / 3600), static_cast<int>(rem / 60 % 60),
+                        static_cast<int>(rem % 60));
+  if (nanos != 0) {
+    if (nanos % 1000000 == 0) {
+      n += std::snprintf(buf + n, sizeof buf - n, ".%03d", nanos / 1000000);
+    } else if (nanos % 1000 == 0) {
+      n += std::snprintf(buf + n, sizeof buf - n, ".%06d", nanos / 1000);
+    } else {
+      n += std::snprintf(buf + n, sizeof buf - n, ".%09d", nanos);
+    }
+  }
+  std::snprintf(buf + n, sizeof buf - n, "Z\"");
+  out->append(buf);
+  return true;
+}
+
+bool AppendMessage(const pb::Message& m, std::string* out);
+
+// One value of field f (element `index` when repeated).
+bool AppendValue(const pb::Message& m, const pb::FieldDescriptor* f, int index, std::string* out) {
+  const pb::Reflection* r = m.GetReflection();
+  const bool rep = f->is_repeated();
+  switch (f->cpp_type()) {
+    case Cpp::CPPTYPE_INT32:
+      AppendInteger(rep ? r->GetRepeatedInt32(m, f, index) : r->GetInt32(m, f), false, out);
+      return true;
+    case Cpp::CPPTYPE_UINT32:
+      AppendInteger(rep ? r->GetRepeatedUInt32(m, f, index) : r->GetUInt32(m, f), false, out);
+      return true;
+    case Cpp::CPPTYPE_INT64:
+      AppendInteger(rep ? r->GetRepeatedInt64(m, f, index) : r->GetInt64(m, f), true, out);
+      return true;
+    case Cpp::CPPTYPE_UINT64:
+      AppendInteger(rep ? r->GetRepeatedUInt64(m, f, index) : r->GetUInt64(m, f), true, out);
+      return true;
+    case Cpp::CPPTYPE_DOUBLE:
+      return AppendDouble(rep ? r->GetRepeatedDouble(m, f, index) : r->GetDouble(m, f), out);
+    case Cpp::CPPTYPE_FLOAT:
+      return AppendFloat(rep ? r->GetRepeatedFloat(m, f, index) : r->GetFloat(m, f), out);
+    case Cpp::CPPTYPE_BOOL:
+      out->append((rep ? r->GetRepeatedBool(m, f, index) : r->GetBool(m, f)) ? "true" : "false");
+      return true;
+    case Cpp::CPPTYPE_ENUM: {
+      const int number = rep ? r->GetRepeatedEnumValue(m, f, index) : r->GetEnumValue(m, f);
+      if (const auto* v = f->enum_type()->FindValueByNumber(number)) {
+        return AppendString(v->name(), out);
+      }
+      AppendInteger(number, false, out);
+      return true;
+    }
+    case Cpp::CPPTYPE_STRING: {
+      if (f->type() == pb::FieldDescriptor::TYPE_BYTES) return false;  // base64: protobuf's
+      std::string scratch;
+      const std::string& s = rep ? r->GetRepeatedStringReference(m, f, index, &scratch)
+                                 : r->GetStringReference(m, f, &scratch);
+      return AppendString(s, out);
+    }
+    case Cpp::CPPTYPE_MESSAGE:
+      return AppendMessage(rep ? r->GetRepeatedMessage(m, f, index) : r->GetMessage(m, f), out);
+  }
+  return false;
+}
+
+bool AppendMessage(const pb::Message& m, std::string* out) {
+  const pb::Descriptor* d = m.GetDescriptor();
+  switch (d->well_known_type()) {
+    case pb::Descriptor::WELLKNOWNTYPE_UNSPECIFIED:
+      break;
+    case pb::Descriptor::WELLKNOWNTYPE_TIMESTAMP:
+      return AppendTimestamp(m, out);
+    case pb::Descriptor::WELLKNOWNTYPE_DOUBLEVALUE:
+    case pb::Descriptor::WELLKNOWNTYPE_FLOATVALUE:
+    case pb::Descriptor::WELLKNOWNTYPE_INT64VALUE:
+    case pb::Descriptor::WELLKNOWNTYPE_UINT64VALUE:
+    case pb::Descriptor::WELLKNOWNTYPE_INT32VALUE:
+    case pb::Descriptor::WELLKNOWNTYPE_UINT32VALUE:
+    case pb::Descriptor::WELLKNOWNTYPE_BOOLVALUE:
+    case pb::Descriptor::WELLKNOWNTYPE_STRINGVALUE:
+      return AppendValue(m, d->FindFieldByNumber(1), 0, out);  // the wrapped value, bare
+    default:
+      return false;  // Any, Struct, Duration, FieldMask, BytesValue, ...
+  }
+  if (d->file()->syntax() != pb::FileDescriptor::SYNTAX_PROTO3) return false;
+  const pb::Reflection* r = m.GetReflection();
+  out->push_back('{');
+  bool first = true;
+  auto key = [&](const pb::FieldDescriptor* f) {
+    if (!first) out->push_back(',');
+    first = false;
+    out->push_back('"');
+    out->append(f->name());
+    out->append("\":");
+  };
+  // Set singular Timestamp and wrapper fields come last, by field number: protobuf 3.21's
+  // DefaultValueObjectWriter lays out one node per field in declaration order, but these
+  // arrive as primitives where it holds an object node, so it appends new nodes at the end
+  // (util/internal/default_value_objectwriter.cc, RenderDataPiece).
+  const pb::FieldDescriptor* late[8];
+  int late_count = 0;
+  for (int i = 0; i < d->field_count(); ++i) {
+    const pb::FieldDescriptor* f = d->field(i);
+    if (f->is_map() || f->containing_oneof() != nullptr) return false;
+    if (!f->is_repeated()) {
+      if (f->cpp_type() == Cpp::CPPTYPE_MESSAGE) {
+        if (!r->HasField(m, f)) continue;  // unset sub-messages are left out
+        if (f->message_type()->well_known_type() != pb::Descriptor::WELLKNOWNTYPE_UNSPECIFIED) {
+          if (late_count == std::size(late)) return false;
+          late[late_count++] = f;
+          continue;
+        }
+      } else if (f->has_presence()) {
+        return false;  // proto3 `optional`
+      }
+      key(f);
+      if (!AppendValue(m, f, 0, out)) return false;
+      continue;
+    }
+    key(f);
+    out->push_back('[');
+    const int n = r->FieldSize(m, f);
+    for (int k = 0; k < n; ++k) {
+      if (k > 0) out->push_back(',');
+      if (!AppendValue(m, f, k, out)) return false;
+    }
+    out->push_back(']');
+  }
+  std::sort(late, late + late_count, [](const pb::FieldDescriptor* a, const pb::FieldDescriptor* b) {
+    return a->number() < b->number();
+  });
+  for (int i = 0; i < late_count; ++i) {
+    key(late[i]);
+    if (!AppendValue(m, late[i], 0, out)) return false;
+  }
+  out->push_back('}');
+  return true;
+}
+
+}  // namespace
+
+bool AppendJsonDirect(const pb::Message& msg, std::string* out) { return AppendMessage(msg, out); }
+
+absl::StatusOr<std::string> PrintJson(const pb::Message& msg) {
+  std::string json;
+  json.reserve(1024);
+  if (AppendMessage(msg, &json)) return json;
+  json.clear();
+  pb::util::JsonPrintOptions options;
+  options.always_print_primitive_fields = true;
+  options.preserve_proto_field_names = true;
+  if (auto s = pb::util::MessageToJsonString(msg, &json, options); !s.ok()) {
+    return absl::InternalError(std::string(s.message()));
+  }
+  return json;
+}
+
+}  // namespace drivegw::rest
