@@ -182,8 +182,9 @@ void RpcMetrics::Record(std::string_view service, std::string_view method,
   registry_.GetCounter(kRequestsName, kRequestsHelp, labels).Inc();
   if (drive == nullptr) return;
   registry_
-      .GetCounter(kDriveRequestsName, kDriveRequestsHelp,
-                  {{"drive", drive->first}, {"family", drive->second}, {"method", std::string(method)}})
+      .GetCounter(
+          kDriveRequestsName, kDriveRequestsHelp,
+          {{"drive", drive->first}, {"family", drive->second}, {"method", std::string(method)}})
       .Inc();
   if (code != grpc::StatusCode::OK) {
     registry_

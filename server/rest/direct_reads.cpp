@@ -43,8 +43,7 @@ std::pair<std::string, DirectUnary> Direct(std::string_view method, const server
                                            const ops::RpcMetrics& metrics, Call call) {
   const std::string_view service = v1::DriveService::service_full_name();
   std::string full = server::FullMethod(service, method);
-  auto series =
-      std::make_shared<const ops::RpcMetrics::Method>(metrics, service, method, "rest");
+  auto series = std::make_shared<const ops::RpcMetrics::Method>(metrics, service, method, "rest");
   DirectUnary handler = [full, series, &auth, &metrics, call = std::move(call)](
                             const HttpRequest& http, const pb::Message& in,
                             pb::Message* out) -> grpc::Status {
@@ -80,16 +79,14 @@ std::map<std::string, DirectUnary> DriveServiceDirectReads(server::DriveServiceC
                                                            const ops::RpcMetrics& metrics) {
   std::map<std::string, DirectUnary> out;
   out.insert(Direct<v1::ListDrivesRequest, v1::ListDrivesResponse>(
-      "ListDrives", auth, metrics,
-      [&core](const v1::ListDrivesRequest& r, const CallContext& c) {
+      "ListDrives", auth, metrics, [&core](const v1::ListDrivesRequest& r, const CallContext& c) {
         return core.ListDrives(r, c);
       }));
   out.insert(Direct<v1::GetDriveRequest, v1::Drive>(
       "GetDrive", auth, metrics,
       [&core](const v1::GetDriveRequest& r, const CallContext& c) { return core.GetDrive(r, c); }));
   out.insert(Direct<v1::GetCommandRequest, v1::CommandHandle>(
-      "GetCommand", auth, metrics,
-      [&core](const v1::GetCommandRequest& r, const CallContext& c) {
+      "GetCommand", auth, metrics, [&core](const v1::GetCommandRequest& r, const CallContext& c) {
         return core.GetCommand(r, c);
       }));
   return out;

@@ -255,9 +255,10 @@ bool AppendMessage(const pb::Message& m, std::string* out) {
     }
     out->push_back(']');
   }
-  std::sort(late, late + late_count, [](const pb::FieldDescriptor* a, const pb::FieldDescriptor* b) {
-    return a->number() < b->number();
-  });
+  std::sort(late, late + late_count,
+            [](const pb::FieldDescriptor* a, const pb::FieldDescriptor* b) {
+              return a->number() < b->number();
+            });
   for (int i = 0; i < late_count; ++i) {
     key(late[i]);
     if (!AppendValue(m, late[i], 0, out)) return false;

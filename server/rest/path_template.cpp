@@ -226,8 +226,8 @@ bool PathTemplate::Fits(std::string_view path) const {
   size_t start = 0;
   for (size_t i = 0;; ++i) {
     const size_t slash = path.find('/', start);
-    const std::string_view raw =
-        path.substr(start, slash == std::string_view::npos ? std::string_view::npos : slash - start);
+    const std::string_view raw = path.substr(
+        start, slash == std::string_view::npos ? std::string_view::npos : slash - start);
     if (i < fixed) {
       if (raw.empty()) return false;
       if (segments_[i].kind == SegmentKind::kLiteral && !DecodedEquals(raw, segments_[i].literal)) {

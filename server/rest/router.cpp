@@ -744,8 +744,7 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
       return;
     }
     const std::string& method = request.method;
-    if (auto fixed = options_.fixed_routes.find(path);
-        fixed != options_.fixed_routes.end()) {
+    if (auto fixed = options_.fixed_routes.find(path); fixed != options_.fixed_routes.end()) {
       if (method != "GET") {
         auto r = ErrorResponse(
             405, kUnimplemented,

@@ -2,6 +2,8 @@
 // call, JSON response (or an NDJSON stream) out. No Beast here; unit tests call it directly.
 #pragma once
 
+#include <grpcpp/support/status.h>
+
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -11,15 +13,13 @@
 #include <utility>
 #include <vector>
 
-#include <grpcpp/support/status.h>
-
 #include "absl/status/statusor.h"
 #include "server/rest/path_template.h"
 
 namespace google::protobuf {
 class Message;
 class MethodDescriptor;
-}
+}  // namespace google::protobuf
 namespace grpc {
 class Channel;
 }
@@ -102,8 +102,9 @@ class ResponseSink {
 // (authentication, the method's role, RPC metrics), must not block, and returns the
 // grpc::Status the gRPC call would have ended with (error_details included), `out` filled when
 // OK. The router then maps both paths through the same code.
-using DirectUnary = std::function<grpc::Status(
-    const HttpRequest& request, const google::protobuf::Message& in, google::protobuf::Message* out)>;
+using DirectUnary =
+    std::function<grpc::Status(const HttpRequest& request, const google::protobuf::Message& in,
+                               google::protobuf::Message* out)>;
 
 // Fixed GET routes by path; `std::less<>` so a request path is looked up without a copy.
 using FixedRoutes = std::map<std::string, std::function<HttpResponse()>, std::less<>>;

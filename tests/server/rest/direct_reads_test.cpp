@@ -12,8 +12,8 @@
 
 #include <filesystem>
 #include <map>
-#include <set>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -35,8 +35,8 @@
 namespace drivegw::rest {
 namespace {
 
-using ::testing::HasSubstr;
 using test_support::RecordingSink;
+using ::testing::HasSubstr;
 
 class DirectReadsTest : public ::testing::Test {
  protected:
@@ -164,8 +164,8 @@ class DirectReadsTest : public ::testing::Test {
     EXPECT_TRUE(records.ok()) << records.status();
     std::vector<std::string> out;
     for (const auto& r : records.value_or(std::vector<storage::AuditRecord>{})) {
-      out.push_back(r.principal + " " + std::to_string(r.result_code) + " " + r.request_json +
-                    " " + r.source);
+      out.push_back(r.principal + " " + std::to_string(r.result_code) + " " + r.request_json + " " +
+                    r.source);
     }
     return out;
   }

@@ -142,12 +142,16 @@ class Filler {
     return static_cast<float>(Double());
   }
   std::string String() {
-    static const char* kPlain[] = {"", "x1", "drives/x1", "udp://127.0.0.1:49360",
-                                   "drives/x1/commands/17", "Limit switch (negative) active",
+    static const char* kPlain[] = {"",
+                                   "x1",
+                                   "drives/x1",
+                                   "udp://127.0.0.1:49360",
+                                   "drives/x1/commands/17",
+                                   "Limit switch (negative) active",
                                    "a-b_c.d~e!$&'()*+,;=:@%"};
-    static const char* kEscaped[] = {"say \"hi\"", "back\\slash", "<b>", "tab\there",
-                                     "line\nfeed", "\x01\x1f\x7f", "caf\xc3\xa9", "\xe2\x80\xa8",
-                                     "\xe6\x97\xa5"};
+    static const char* kEscaped[] = {"say \"hi\"",  "back\\slash",  "<b>",
+                                     "tab\there",   "line\nfeed",   "\x01\x1f\x7f",
+                                     "caf\xc3\xa9", "\xe2\x80\xa8", "\xe6\x97\xa5"};
     if (Chance(80)) return kPlain[Pick(0, std::size(kPlain) - 1)];
     return kEscaped[Pick(0, std::size(kEscaped) - 1)];
   }
@@ -167,12 +171,14 @@ class Filler {
         r->SetUInt32(m, f, Chance(20) ? std::numeric_limits<uint32_t>::max() : rng_());
         break;
       case Cpp::CPPTYPE_INT64:
-        r->SetInt64(m, f, Chance(20) ? std::numeric_limits<int64_t>::min()
-                                     : static_cast<int64_t>(rng_()) * Pick(-3, 3));
+        r->SetInt64(m, f,
+                    Chance(20) ? std::numeric_limits<int64_t>::min()
+                               : static_cast<int64_t>(rng_()) * Pick(-3, 3));
         break;
       case Cpp::CPPTYPE_UINT64:
-        r->SetUInt64(m, f, Chance(20) ? std::numeric_limits<uint64_t>::max()
-                                      : (static_cast<uint64_t>(rng_()) << 20));
+        r->SetUInt64(m, f,
+                     Chance(20) ? std::numeric_limits<uint64_t>::max()
+                                : (static_cast<uint64_t>(rng_()) << 20));
         break;
       case Cpp::CPPTYPE_DOUBLE:
         r->SetDouble(m, f, Double());
@@ -240,9 +246,9 @@ class Filler {
 // Every message type (nested ones too) of the API's proto files.
 std::vector<const pb::Descriptor*> ApiMessages() {
   const pb::FileDescriptor* files[] = {
-      v1::Drive::descriptor()->file(),         v1::ParameterSet::descriptor()->file(),
-      v1::CurveSet::descriptor()->file(),      v1::AuditEvent::descriptor()->file(),
-      v1::Token::descriptor()->file(),         v1::Lease::descriptor()->file(),
+      v1::Drive::descriptor()->file(),    v1::ParameterSet::descriptor()->file(),
+      v1::CurveSet::descriptor()->file(), v1::AuditEvent::descriptor()->file(),
+      v1::Token::descriptor()->file(),    v1::Lease::descriptor()->file(),
       v1::Readiness::descriptor()->file()};
   std::vector<const pb::Descriptor*> out;
   std::vector<const pb::Descriptor*> todo;
