@@ -53,7 +53,7 @@ class RpcMetrics {
     mutable std::atomic<Counter*> ok_{nullptr};
     mutable std::atomic<Histogram*> duration_{nullptr};
     // One entry per configured drive (fixed at construction), its series resolved on first use.
-    std::map<std::string, std::atomic<Counter*>, std::less<>> drive_requests_;
+    mutable std::map<std::string, std::atomic<Counter*>, std::less<>> drive_requests_;
   };
 
  private:

@@ -8,12 +8,12 @@
 // Timestamps as RFC 3339 UTC with 0, 3, 6 or 9 fractional digits.
 #include "server/rest/json_print.h"
 
-#include <algorithm>
 #include <cfloat>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <utility>
 
 #include "google/protobuf/descriptor.h"
 #include "google/protobuf/message.h"
@@ -227,7 +227,7 @@ bool AppendMessage(const pb::Message& m, std::string* out) {
   // arrive as primitives where it holds an object node, so it appends new nodes at the end
   // (util/internal/default_value_objectwriter.cc, RenderDataPiece).
   const pb::FieldDescriptor* late[8];
-  int late_count = 0;
+  size_t late_count = 0;
   for (int i = 0; i < d->field_count(); ++i) {
     const pb::FieldDescriptor* f = d->field(i);
     if (f->is_map() || f->containing_oneof() != nullptr) return false;
@@ -255,11 +255,12 @@ bool AppendMessage(const pb::Message& m, std::string* out) {
     }
     out->push_back(']');
   }
-  std::sort(late, late + late_count,
-            [](const pb::FieldDescriptor* a, const pb::FieldDescriptor* b) {
-              return a->number() < b->number();
-            });
-  for (int i = 0; i < late_count; ++i) {
+  for (size_t i = 1; i < late_count; ++i) {  // insertion sort by number: a handful at most
+    for (size_t k = i; k > 0 && late[k - 1]->number() > late[k]->number(); --k) {
+      std::swap(late[k - 1], late[k]);
+    }
+  }
+  for (size_t i = 0; i < late_count; ++i) {
     key(late[i]);
     if (!AppendValue(m, late[i], 0, out)) return false;
   }

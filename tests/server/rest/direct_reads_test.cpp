@@ -28,6 +28,7 @@
 #include "server/rest/router.h"
 #include "storage/audit_log.h"
 #include "storage/db.h"
+#include "storage/migrations.h"
 #include "storage/token_repo.h"
 #include "tests/server/core/core_test_support.h"
 #include "tests/server/rest/recording_sink.h"
@@ -47,6 +48,7 @@ class DirectReadsTest : public ::testing::Test {
     auto db = storage::Db::Open((std::filesystem::path(dir_) / "drivegw.db").string());
     ASSERT_TRUE(db.ok()) << db.status();
     db_ = std::make_unique<storage::Db>(std::move(*db));
+    ASSERT_TRUE(storage::Migrate(*db_).ok());
     tokens_ = std::make_unique<storage::TokenRepo>(*db_);
     audit_ = std::make_unique<storage::AuditLog>(*db_);
     auth::AuthOptions ao;
@@ -154,7 +156,7 @@ class DirectReadsTest : public ::testing::Test {
     return out;
   }
 
-  // auth.denied entries: principal, result code, request JSON, source.
+  // auth.denied entries: everything but time, ids and hashes.
   std::vector<std::string> Denials() {
     storage::AuditQuery q;
     q.action = "auth.denied";
@@ -164,8 +166,9 @@ class DirectReadsTest : public ::testing::Test {
     EXPECT_TRUE(records.ok()) << records.status();
     std::vector<std::string> out;
     for (const auto& r : records.value_or(std::vector<storage::AuditRecord>{})) {
-      out.push_back(r.principal + " " + std::to_string(r.result_code) + " " + r.request_json + " " +
-                    r.source);
+      out.push_back(r.principal + "|" + r.role + "|" + r.source_address + "|" + r.drive + "|" +
+                    r.action + "|" + r.request_json + "|" + std::to_string(r.result_code) + "|" +
+                    r.result_message);
     }
     return out;
   }
