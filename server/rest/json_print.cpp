@@ -9,10 +9,12 @@
 #include "server/rest/json_print.h"
 
 #include <cfloat>
+#include <charconv>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <type_traits>
 #include <utility>
 
 #include "google/protobuf/descriptor.h"
@@ -39,18 +41,11 @@ bool AppendString(const std::string& s, std::string* out) {
   return true;
 }
 
-// The number text must be plain C-locale (a locale's decimal comma goes to protobuf, which
-// delocalises it).
-bool PlainNumber(const char* text) {
-  for (const char* p = text; *p != '\0'; ++p) {
-    const char c = *p;
-    if (!((c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.' || c == 'e')) return false;
-  }
-  return true;
-}
-
 // protobuf SimpleDtoa: "%.15g", or "%.17g" when that does not read back; non-finite quoted.
-bool AppendDouble(double v, std::string* out) {
+// std::to_chars with a precision is specified as printf's %.*g (C++20 [charconv.to.chars]),
+// and from_chars as strtod in the C locale: protobuf's steps without printf's cost.
+template <typename T>
+bool AppendFloating(T v, int digits, std::string* out) {
   if (std::isnan(v)) {
     out->append("\"NaN\"");
     return true;
@@ -59,33 +54,25 @@ bool AppendDouble(double v, std::string* out) {
     out->append(v > 0 ? "\"Infinity\"" : "\"-Infinity\"");
     return true;
   }
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.*g", DBL_DIG, v);
-  if (std::strtod(buf, nullptr) != v) std::snprintf(buf, sizeof buf, "%.*g", DBL_DIG + 2, v);
-  if (!PlainNumber(buf)) return false;
-  out->append(buf);
+  char buf[64];
+  std::to_chars_result r =
+      std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, digits);
+  if (r.ec != std::errc()) return false;
+  T back{};
+  if (auto p = std::from_chars(buf, r.ptr, back); p.ec != std::errc() || back != v) {
+    r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general,
+                      digits + (std::is_same_v<T, float> ? 3 : 2));
+    if (r.ec != std::errc()) return false;
+  }
+  char* const end = r.ptr;
+  out->append(buf, end);
   return true;
 }
+
+bool AppendDouble(double v, std::string* out) { return AppendFloating(v, DBL_DIG, out); }
 
 // protobuf SimpleFtoa: "%.6g", or "%.9g" when that does not read back as the same float.
-bool AppendFloat(float v, std::string* out) {
-  if (std::isnan(v)) {
-    out->append("\"NaN\"");
-    return true;
-  }
-  if (std::isinf(v)) {
-    out->append(v > 0 ? "\"Infinity\"" : "\"-Infinity\"");
-    return true;
-  }
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.*g", FLT_DIG, static_cast<double>(v));
-  if (std::strtof(buf, nullptr) != v) {
-    std::snprintf(buf, sizeof buf, "%.*g", FLT_DIG + 3, static_cast<double>(v));
-  }
-  if (!PlainNumber(buf)) return false;
-  out->append(buf);
-  return true;
-}
+bool AppendFloat(float v, std::string* out) { return AppendFloating(v, FLT_DIG, out); }
 
 template <typename T>
 void AppendInteger(T v, bool quoted, std::string* out) {
