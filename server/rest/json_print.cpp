@@ -10,9 +10,7 @@
 
 #include <cfloat>
 #include <charconv>
-#include <cinttypes>
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <type_traits>
 #include <utility>
@@ -95,6 +93,18 @@ void CivilFromDays(int64_t z, int64_t* y, unsigned* m, unsigned* d) {
   *y = static_cast<int64_t>(yoe) + era * 400 + (*m <= 2 ? 1 : 0);
 }
 
+// `v` in decimal, zero-padded to `width` digits.
+void AppendDigits(uint64_t v, int width, std::string* out) {
+  char buf[20];
+  int n = 0;
+  do {
+    buf[n++] = static_cast<char>('0' + v % 10);
+    v /= 10;
+  } while (v != 0 && n < 20);
+  for (int i = n; i < width; ++i) out->push_back('0');
+  while (n > 0) out->push_back(buf[--n]);
+}
+
 // google.protobuf.Timestamp as protobuf prints it; out-of-range values go to protobuf (which
 // refuses them).
 bool AppendTimestamp(const pb::Message& m, std::string* out) {
@@ -114,21 +124,30 @@ bool AppendTimestamp(const pb::Message& m, std::string* out) {
   int64_t year;
   unsigned month, day;
   CivilFromDays(days, &year, &month, &day);
-  char buf[48];
-  int n = std::snprintf(buf, sizeof buf, "\"%04" PRId64 "-%02u-%02uT%02d:%02d:%02d", year, month,
-                        day, static_cast<int>(rem / 3600), static_cast<int>(rem / 60 % 60),
-                        static_cast<int>(rem % 60));
+  // "\"YYYY-MM-DDThh:mm:ss[.fff|.ffffff|.fffffffff]Z\"" (years 1..9999: four digits).
+  out->push_back('"');
+  AppendDigits(static_cast<uint64_t>(year), 4, out);
+  out->push_back('-');
+  AppendDigits(month, 2, out);
+  out->push_back('-');
+  AppendDigits(day, 2, out);
+  out->push_back('T');
+  AppendDigits(static_cast<uint64_t>(rem / 3600), 2, out);
+  out->push_back(':');
+  AppendDigits(static_cast<uint64_t>(rem / 60 % 60), 2, out);
+  out->push_back(':');
+  AppendDigits(static_cast<uint64_t>(rem % 60), 2, out);
   if (nanos != 0) {
+    out->push_back('.');
     if (nanos % 1000000 == 0) {
-      n += std::snprintf(buf + n, sizeof buf - n, ".%03d", nanos / 1000000);
+      AppendDigits(static_cast<uint64_t>(nanos / 1000000), 3, out);
     } else if (nanos % 1000 == 0) {
-      n += std::snprintf(buf + n, sizeof buf - n, ".%06d", nanos / 1000);
+      AppendDigits(static_cast<uint64_t>(nanos / 1000), 6, out);
     } else {
-      n += std::snprintf(buf + n, sizeof buf - n, ".%09d", nanos);
+      AppendDigits(static_cast<uint64_t>(nanos), 9, out);
     }
   }
-  std::snprintf(buf + n, sizeof buf - n, "Z\"");
-  out->append(buf);
+  out->append("Z\"");
   return true;
 }
 

@@ -157,6 +157,8 @@ class Parser {
 
 }  // namespace
 
+bool IsPercentEncoded(std::string_view in) { return WellEncoded(in); }
+
 std::optional<std::string> PercentDecode(std::string_view in, bool keep_slash, bool plus_as_space) {
   std::string out;
   out.reserve(in.size());

@@ -61,6 +61,9 @@ class PathTemplate {
   std::string verb_;
 };
 
+// True when every '%' in `in` starts a complete escape (PercentDecode(in) succeeds).
+bool IsPercentEncoded(std::string_view in);
+
 // Percent-decodes `in` ("%41" -> "A"). With keep_slash, "%2F"/"%2f" stay encoded. With
 // plus_as_space ('+' -> ' '), for query strings. Returns nullopt on a malformed escape.
 std::optional<std::string> PercentDecode(std::string_view in, bool keep_slash = false,

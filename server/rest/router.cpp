@@ -9,6 +9,7 @@
 #include <condition_variable>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -629,6 +630,12 @@ absl::Status AddRoutes(const pb::MethodDescriptor* m, const google::api::HttpRul
     }
   }
   route.specificity = route.path.Specificity();
+  {
+    const auto& segs = route.path.segments();
+    const bool multi_last = !segs.empty() && segs.back().kind == PathTemplate::SegmentKind::kMulti;
+    route.min_segments = multi_last ? segs.size() - 1 : segs.size();
+    route.max_segments = multi_last ? std::numeric_limits<size_t>::max() : segs.size();
+  }
   route.method = m;
   route.grpc_path = absl::StrCat("/", m->service()->full_name(), "/", m->name());
   route.server_streaming = m->server_streaming();
@@ -698,7 +705,11 @@ absl::StatusOr<std::unique_ptr<Router>> Router::Create(RouterOptions options) {
 Router::Router(RouterOptions options, std::vector<Route> routes)
     : options_(std::move(options)),
       routes_(std::move(routes)),
-      inflight_(std::make_shared<Inflight>()) {}
+      inflight_(std::make_shared<Inflight>()) {
+  for (const Route& r : routes_) by_specificity_.push_back(&r);
+  std::stable_sort(by_specificity_.begin(), by_specificity_.end(),
+                   [](const Route* a, const Route* b) { return a->specificity > b->specificity; });
+}
 
 Router::~Router() {
   CancelAll();
@@ -737,7 +748,7 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
     const size_t q = target.find('?');
     const std::string_view path = target.substr(0, q);
     const std::string_view query = q == std::string_view::npos ? "" : target.substr(q + 1);
-    if (!PercentDecode(path)) {
+    if (!IsPercentEncoded(path)) {
       sink->OnResponse(ErrorResponse(
           400, kInvalidArgument,
           absl::StrCat("malformed percent-encoding in path ", absl::CHexEscape(Av(path)))));
@@ -775,21 +786,20 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
 
     // The most specific matching template wins; when it belongs to another method, 405
     // (Allow lists the methods whose templates match at that rank).
-    // Matching routes are only ranked here (Route::path.Fits allocates nothing); the winner's
-    // variables are bound once, below.
+    // Routes are tried most specific first (ties in rule order) and only down to the first
+    // fit's rank: the winner is the first fit of this method at that rank (Fits allocates
+    // nothing; the winner's variables are bound once, below).
+    const size_t segments = static_cast<size_t>(std::count(path.begin(), path.end(), '/'));
     const Route* best = nullptr;
-    int best_score = -1;
     int top_score = -1;
-    for (const Route& route : routes_) {
-      if (!route.path.Fits(path)) continue;
-      const int score = route.specificity;
-      top_score = std::max(top_score, score);
-      if (route.http_method == method && score > best_score) {
-        best = &route;
-        best_score = score;
-      }
+    for (const Route* route : by_specificity_) {
+      if (route->specificity < top_score) break;
+      if (segments < route->min_segments || segments > route->max_segments) continue;
+      if (!route->path.Fits(path)) continue;
+      top_score = route->specificity;
+      if (best == nullptr && route->http_method == method) best = route;
     }
-    if (best != nullptr && best_score == top_score) {
+    if (best != nullptr) {
       auto bindings = best->path.Match(path);
       if (!bindings) {  // Fits and Match disagree: our bug
         sink->OnResponse(ErrorResponse(500, kInternal, "rest router: path match inconsistent"));

@@ -134,7 +134,11 @@ struct RouterOptions {
 struct Route {
   std::string http_method;  // "GET", "POST", "PUT", "DELETE", "PATCH" or a custom kind
   PathTemplate path;
-  int specificity = 0;        // path.Specificity(), ranks overlapping templates
+  int specificity = 0;  // path.Specificity(), ranks overlapping templates
+  // Segment counts ("/"s) of the request paths the template can match: a cheap filter before
+  // PathTemplate::Fits.
+  size_t min_segments = 0;
+  size_t max_segments = 0;
   std::string body;           // "" (none), "*" or a request field name
   std::string response_body;  // "" or a response field name
   const google::protobuf::MethodDescriptor* method = nullptr;
@@ -176,6 +180,8 @@ class Router {
 
   RouterOptions options_;
   std::vector<Route> routes_;
+  // routes_ by descending specificity, ties in routes_ order: matching stops below the first fit.
+  std::vector<const Route*> by_specificity_;
   std::shared_ptr<Inflight> inflight_;
 };
 
