@@ -19,7 +19,9 @@ namespace drivegw::bench {
 class DemoGateway {
  public:
   // Exits with a message when the gateway does not start (a benchmark has nothing to measure).
-  DemoGateway() {
+  // `rest_direct_reads`: GatewayOptions::rest_direct_reads (decision 1331); `can_offset` moves
+  // the CAN buses off a gateway started before in the same process.
+  explicit DemoGateway(bool rest_direct_reads = true, uint16_t can_offset = 0) {
     char tmpl[] = "/tmp/drivegw-bench-XXXXXX";
     if (::mkdtemp(tmpl) == nullptr) std::exit(1);
     dir_ = tmpl;
@@ -29,7 +31,9 @@ class DemoGateway {
     o.config.data_dir = dir_;
     o.demo_first_port = 0;
     o.demo_master_port = 0;
-    o.demo_can_port = static_cast<uint16_t>(20000 + ::getpid() % 20000);  // a bus of its own
+    o.demo_can_port =  // a bus of its own
+        static_cast<uint16_t>(20000 + ::getpid() % 20000 + can_offset);
+    o.rest_direct_reads = rest_direct_reads;
     auto gw = server::Gateway::Start(std::move(o));
     if (!gw.ok()) {
       std::fprintf(stderr, "gateway: %s\n", std::string(gw.status().message()).c_str());

@@ -3,7 +3,8 @@
 // against a bare Beast endpoint in the same binary (same io_context threading as server/rest:
 // 2 threads, a strand per connection, request_parser + string_body) answering a fixed body of the
 // same size. One load generator for both: one thread, raw non-blocking sockets, poll(), one
-// request in flight per connection (closed loop), pre-built request bytes.
+// request in flight per connection (closed loop), pre-built request bytes. GET /v1/drives/x1 takes
+// the direct read path (decision 1331); a second gateway measures the in-process gRPC path too.
 // Run: build/bench/rest_status_bench [seconds per round = 2] [rounds = 4] [connections = 16]
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -36,6 +37,7 @@
 #include "google/protobuf/util/json_util.h"
 #include "server/core/drive_service.h"
 #include "server/gateway.h"
+#include "server/rest/json_print.h"
 
 namespace {
 
@@ -236,31 +238,46 @@ Summary Summarize(const std::vector<LoadResult>& runs) {
   return s;
 }
 
-// What the gateway path costs without HTTP and gRPC: the core's GetDrive and the proto -> JSON
-// printing the router does (same options), CPU µs per call of this thread.
-double CoreAndJsonCpuUs(drivegw::server::DriveServiceCore& core, int n) {
+double ThreadCpuSeconds() {
+  timespec t{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+// What the gateway path costs without HTTP and gRPC, CPU µs per call of this thread: the core's
+// GetDrive alone, the router's JSON printing of its Drive (PrintJson, decision 1332), and, for
+// comparison, protobuf's MessageToJsonString with the same options that PrintJson replaces.
+struct CoreCosts {
+  double get_drive_us = 0;
+  double print_json_us = 0;
+  double message_to_json_us = 0;
+};
+CoreCosts MeasureCore(drivegw::server::DriveServiceCore& core, int n) {
   google::protobuf::util::JsonPrintOptions o;
   o.always_print_primitive_fields = true;
   o.preserve_proto_field_names = true;
   drivegw::v1::GetDriveRequest req;
   req.set_name("drives/x1");
   drivegw::server::CallContext cc;
+  auto d = core.GetDrive(req, cc);
+  if (!d.ok()) Die("core GetDrive failed");
   size_t bytes = 0;
-  auto thread_cpu = [] {
-    timespec t{};
-    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-  };
-  const double cpu0 = thread_cpu();
+  CoreCosts c;
+  double t0 = ThreadCpuSeconds();
+  for (int i = 0; i < n; ++i) bytes += core.GetDrive(req, cc)->ByteSizeLong();
+  c.get_drive_us = 1e6 * (ThreadCpuSeconds() - t0) / n;
+  t0 = ThreadCpuSeconds();
+  for (int i = 0; i < n; ++i) bytes += drivegw::rest::PrintJson(*d)->size();
+  c.print_json_us = 1e6 * (ThreadCpuSeconds() - t0) / n;
+  t0 = ThreadCpuSeconds();
   for (int i = 0; i < n; ++i) {
-    auto d = core.GetDrive(req, cc);
-    if (!d.ok()) Die("core GetDrive failed");
     std::string json;
     if (!google::protobuf::util::MessageToJsonString(*d, &json, o).ok()) Die("JSON failed");
     bytes += json.size();
   }
+  c.message_to_json_us = 1e6 * (ThreadCpuSeconds() - t0) / n;
   if (bytes == 0) Die("empty JSON");
-  return 1e6 * (thread_cpu() - cpu0) / n;
+  return c;
 }
 
 }  // namespace
@@ -288,10 +305,27 @@ int main(int argc, char** argv) {
     // The gateway's HTTP layer alone: /readyz is a fixed route answered without gRPC.
     fixed_runs.push_back(RunLoad(http_port, "/readyz", connections, seconds / 2));
   }
-  const double load_after = drivegw::bench::LoadAverage();
   const Summary b = Summarize(bare_runs), g = Summarize(gw_runs), f = Summarize(fixed_runs);
-  const double core_json_us = CoreAndJsonCpuUs(gw->core(), std::max(1000, rounds * 5000));
+  const CoreCosts core_costs = MeasureCore(gw->core(), std::max(1000, rounds * 5000));
   gw.Stop();
+
+  // Informational: the same request over the in-process gRPC call of decision 501 (direct reads
+  // off, decision 1331), on a second gateway started now, interleaved with the bare endpoint
+  // again so the two ratios compare like with like.
+  std::vector<LoadResult> bare2_runs, grpc_runs;
+  {
+    drivegw::bench::DemoGateway gw_grpc(/*rest_direct_reads=*/false, /*can_offset=*/3);
+    const uint16_t grpc_http_port = gw_grpc->http_port();
+    RunLoad(grpc_http_port, "/v1/drives/x1", connections, std::min(0.2, seconds));
+    for (int r = 0; r < rounds; ++r) {
+      bare2_runs.push_back(RunLoad(bare.port(), "/v1/drives/x1", connections, seconds / 2));
+      grpc_runs.push_back(RunLoad(grpc_http_port, "/v1/drives/x1", connections, seconds / 2));
+    }
+  }
+  const double load_after = drivegw::bench::LoadAverage();
+  const Summary b2 = Summarize(bare2_runs), gg = Summarize(grpc_runs);
+  const double grpc_ratio = b2.rps > 0 ? gg.rps / b2.rps : 0;
+  const double fixed_ratio = f.rps > 0 ? g.rps / f.rps : 0;
 
   const double ratio = b.rps > 0 ? g.rps / b.rps : 0;
   std::printf("P4 REST GET /v1/drives/x1, %d keep-alive connections, %d x %.1f s, body %zu B\n",
@@ -304,30 +338,51 @@ int main(int argc, char** argv) {
               g.p99, g.n, g.cpu_us);
   std::printf("%-44s %10.0f %9.1f %9.1f %9ld %9.1f\n", "  gateway HTTP layer only (GET /readyz)",
               f.rps, f.p50, f.p99, f.n, f.cpu_us);
-  std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  core GetDrive + JSON only (one thread)", "", "",
-              "", "", core_json_us);
-  std::printf("ratio gateway/bare %.2f (target >= 0.7); non-200: %ld; load %.2f -> %.2f\n", ratio,
-              g.errors + b.errors, load_before, load_after);
-  drivegw::bench::Report({"P4",
-                          "rest_status_ratio",
-                          ratio,
-                          "ratio",
-                          ">=0.7",
-                          "bare Beast endpoint (same threading, fixed body of the same size)",
-                          {{"gateway_rps", g.rps},
-                           {"gateway_p50_us", g.p50},
-                           {"gateway_p99_us", g.p99},
-                           {"bare_rps", b.rps},
-                           {"bare_p50_us", b.p50},
-                           {"bare_p99_us", b.p99},
-                           {"http_layer_only_rps", f.rps},
-                           {"gateway_cpu_us_per_req", g.cpu_us},
-                           {"bare_cpu_us_per_req", b.cpu_us},
-                           {"http_layer_only_cpu_us_per_req", f.cpu_us},
-                           {"core_get_drive_and_json_cpu_us", core_json_us},
-                           {"connections", connections},
-                           {"body_bytes", probe.body_bytes},
-                           {"requests", g.n},
-                           {"load_avg", load_after}}});
-  return g.errors + b.errors == 0 ? 0 : 1;
+  std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  core GetDrive only (one thread)", "", "", "", "",
+              core_costs.get_drive_us);
+  std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  PrintJson of that Drive (one thread)", "", "",
+              "", "", core_costs.print_json_us);
+  std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  MessageToJsonString of it, replaced", "", "", "",
+              "", core_costs.message_to_json_us);
+  std::printf("%-44s %10.0f %9.1f %9.1f %9ld %9.1f\n", "  over in-process gRPC (decision 501)",
+              gg.rps, gg.p50, gg.p99, gg.n, gg.cpu_us);
+  std::printf("%-44s %10.0f %9.1f %9.1f %9ld %9.1f\n",
+              "  bare Beast endpoint, beside the gRPC rounds", b2.rps, b2.p50, b2.p99, b2.n,
+              b2.cpu_us);
+  std::printf(
+      "ratio gateway/bare %.2f (target >= 0.7); gateway/own fixed route %.2f; "
+      "gRPC path/bare %.2f; non-200: %ld; load %.2f -> %.2f\n",
+      ratio, fixed_ratio, grpc_ratio, g.errors + b.errors + gg.errors + b2.errors, load_before,
+      load_after);
+  drivegw::bench::Report(
+      {"P4",
+       "rest_status_ratio",
+       ratio,
+       "ratio",
+       ">=0.7",
+       "bare Beast endpoint (same threading, fixed body of the same size)",
+       {{"gateway_rps", g.rps},
+        {"gateway_p50_us", g.p50},
+        {"gateway_p99_us", g.p99},
+        {"bare_rps", b.rps},
+        {"bare_p50_us", b.p50},
+        {"bare_p99_us", b.p99},
+        {"http_layer_only_rps", f.rps},
+        {"gateway_cpu_us_per_req", g.cpu_us},
+        {"bare_cpu_us_per_req", b.cpu_us},
+        {"http_layer_only_cpu_us_per_req", f.cpu_us},
+        {"core_get_drive_and_json_cpu_us", core_costs.get_drive_us + core_costs.print_json_us},
+        {"core_get_drive_cpu_us", core_costs.get_drive_us},
+        {"print_json_cpu_us", core_costs.print_json_us},
+        {"message_to_json_cpu_us", core_costs.message_to_json_us},
+        {"ratio_to_own_fixed_route", fixed_ratio},
+        {"grpc_path_rps", gg.rps},
+        {"grpc_path_ratio", grpc_ratio},
+        {"grpc_path_cpu_us_per_req", gg.cpu_us},
+        {"grpc_path_p50_us", gg.p50},
+        {"connections", connections},
+        {"body_bytes", probe.body_bytes},
+        {"requests", g.n},
+        {"load_avg", load_after}}});
+  return g.errors + b.errors + gg.errors + b2.errors == 0 ? 0 : 1;
 }

@@ -44,6 +44,7 @@
 #include "server/ops/readiness.h"
 #include "server/ops/rpc_metrics.h"
 #include "server/ops/shutdown.h"
+#include "server/rest/direct_reads.h"
 #include "server/rest/server.h"
 #include "sim/linmot/server.h"
 #include "sim/linmot_devicenet/server.h"
@@ -235,6 +236,9 @@ struct Gateway::Impl {
   std::unique_ptr<TokenServiceGrpc> token_service;
   std::unique_ptr<LeaseServiceCore> lease_core;
   std::unique_ptr<LeaseServiceGrpc> lease_service;
+  // Per-RPC metrics (decision 021), shared by the gRPC interceptor and REST's direct reads
+  // (decision 1331); outlives both servers.
+  std::unique_ptr<ops::RpcMetrics> rpc_metrics;
   std::unique_ptr<grpc::Server> grpc_server;
   int grpc_port = 0;
   std::unique_ptr<rest::RestServer> rest;
@@ -451,7 +455,8 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
     std::map<std::string, std::string> families;
     for (const auto& d : impl->drives) families[d->config().name] = d->config().family;
     std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
-    creators.push_back(ops::MakeRpcMetricsFactory(ops::DefaultRegistry(), std::move(families)));
+    impl->rpc_metrics = std::make_unique<ops::RpcMetrics>(ops::DefaultRegistry(), std::move(families));
+    creators.push_back(ops::MakeRpcMetricsFactory(*impl->rpc_metrics));
     builder.experimental().SetInterceptorCreators(std::move(creators));
   }
   DGW_ASSIGN_OR_RETURN(auto grpc_addr, SplitHostPort("listen.grpc", cfg.listen.grpc));
@@ -501,6 +506,11 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
     r.body = s.ok() ? "ready\n" : absl::StrCat("not ready: ", s.message(), "\n");
     return r;
   };
+  // Read-only unary GETs straight into the core on the Beast thread, through the same CallAuth
+  // and RPC metrics (decision 1331, amending 501).
+  if (options.rest_direct_reads) {
+    ro.direct_unary = rest::DriveServiceDirectReads(*impl->core, *impl->call_auth, *impl->rpc_metrics);
+  }
   if (cfg.tls) {
     ro.tls = rest::RestTls{cfg.tls->cert_pem, cfg.tls->key_pem, cfg.tls->client_ca_pem, cfg.tls->require_client_cert};
   }

@@ -44,6 +44,10 @@ struct GatewayOptions {
   // so a test that picks its own DeviceNet bus also gets its own CANopen bus.
   uint16_t demo_canopen_port = 0;
   std::string static_dir;  // web assets served at / (empty: none)
+  // REST serves ListDrives, GetDrive and GetCommand directly from the core (decision 1331);
+  // false: through the in-process gRPC call like every other method (benchmarks and tests
+  // compare the two).
+  bool rest_direct_reads = true;
 };
 
 class Gateway {

@@ -14,11 +14,6 @@ namespace {
 
 namespace gx = grpc::experimental;
 
-struct Shared {
-  Registry& registry;
-  std::map<std::string, std::string> drive_families;
-};
-
 const char* CodeName(grpc::StatusCode code) {
   switch (code) {
     case grpc::StatusCode::OK:
@@ -61,10 +56,23 @@ const char* CodeName(grpc::StatusCode code) {
   return "UNKNOWN";
 }
 
+constexpr char kRequestsName[] = "drivegw_rpc_requests_total";
+constexpr char kRequestsHelp[] = "RPCs finished, by status code.";
+constexpr char kDurationName[] = "drivegw_rpc_duration_seconds";
+constexpr char kDurationHelp[] = "RPC latency from the call's start to its status.";
+constexpr char kDriveRequestsName[] = "drivegw_drive_requests_total";
+constexpr char kDriveRequestsHelp[] = "API calls on one drive, by method.";
+
+Labels CallLabels(std::string_view service, std::string_view method, std::string_view transport) {
+  return {{"service", std::string(service)},
+          {"method", std::string(method)},
+          {"transport", std::string(transport)}};
+}
+
 class RpcMetricsInterceptor final : public gx::Interceptor {
  public:
-  RpcMetricsInterceptor(gx::ServerRpcInfo* info, const Shared& shared)
-      : info_(info), shared_(shared), start_(std::chrono::steady_clock::now()) {
+  RpcMetricsInterceptor(gx::ServerRpcInfo* info, const RpcMetrics& metrics)
+      : info_(info), metrics_(metrics), start_(std::chrono::steady_clock::now()) {
     const std::string_view full = info->method() == nullptr ? "" : info->method();
     const size_t slash = full.rfind('/');
     if (slash != std::string_view::npos && slash > 0) {
@@ -82,7 +90,7 @@ class RpcMetricsInterceptor final : public gx::Interceptor {
     // Only drivegw's own services are known to carry generated protobuf messages; others (the
     // health service) receive raw ByteBuffers.
     if (m->QueryInterceptionHookPoint(gx::InterceptionHookPoints::POST_RECV_MESSAGE) &&
-        drive_.empty() && absl::StartsWith(service_, "drivegw.")) {
+        drive_ == nullptr && absl::StartsWith(service_, "drivegw.")) {
       ReadDrive(static_cast<const google::protobuf::Message*>(m->GetRecvMessage()));
     }
     if (m->QueryInterceptionHookPoint(gx::InterceptionHookPoints::PRE_SEND_STATUS)) {
@@ -114,12 +122,7 @@ class RpcMetricsInterceptor final : public gx::Interceptor {
         field->cpp_type() != google::protobuf::FieldDescriptor::CPPTYPE_STRING) {
       return;
     }
-    std::string name = msg->GetReflection()->GetString(*msg, field);
-    if (absl::StartsWith(name, "drives/")) name = name.substr(7);
-    auto it = shared_.drive_families.find(name);
-    if (it == shared_.drive_families.end()) return;
-    drive_ = name;
-    family_ = it->second;
+    drive_ = metrics_.FindDrive(msg->GetReflection()->GetString(*msg, field));
   }
 
   void Record(grpc::StatusCode code) {
@@ -127,55 +130,117 @@ class RpcMetricsInterceptor final : public gx::Interceptor {
     recorded_ = true;
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    Registry& r = shared_.registry;
-    const char* code_name = CodeName(code);
-    r.GetCounter("drivegw_rpc_requests_total", "RPCs finished, by status code.",
-                 {{"service", service_},
-                  {"method", method_},
-                  {"transport", transport_},
-                  {"code", code_name}})
-        .Inc();
-    r.GetHistogram("drivegw_rpc_duration_seconds",
-                   "RPC latency from the call's start to its status.", LatencyBuckets(),
-                   {{"service", service_}, {"method", method_}, {"transport", transport_}})
-        .Observe(seconds);
-    if (drive_.empty()) return;
-    r.GetCounter("drivegw_drive_requests_total", "API calls on one drive, by method.",
-                 {{"drive", drive_}, {"family", family_}, {"method", method_}})
-        .Inc();
-    if (code != grpc::StatusCode::OK) {
-      r.GetCounter(
-           "drivegw_drive_request_errors_total",
-           "API calls on one drive that did not end OK, by method and code.",
-           {{"drive", drive_}, {"family", family_}, {"method", method_}, {"code", code_name}})
-          .Inc();
-    }
+    metrics_.Record(service_, method_, transport_, drive_, code, seconds);
   }
 
   gx::ServerRpcInfo* info_;
-  const Shared& shared_;
+  const RpcMetrics& metrics_;
   const std::chrono::steady_clock::time_point start_;
   std::string service_;
   std::string method_;
   std::string transport_ = "grpc";
-  std::string drive_;
-  std::string family_;
+  const std::pair<const std::string, std::string>* drive_ = nullptr;
   bool recorded_ = false;
 };
 
 class Factory final : public gx::ServerInterceptorFactoryInterface {
  public:
+  explicit Factory(const RpcMetrics& metrics) : metrics_(metrics) {}
   Factory(Registry& registry, std::map<std::string, std::string> families)
-      : shared_{registry, std::move(families)} {}
+      : owned_(std::make_unique<RpcMetrics>(registry, std::move(families))), metrics_(*owned_) {}
   gx::Interceptor* CreateServerInterceptor(gx::ServerRpcInfo* info) override {
-    return new RpcMetricsInterceptor(info, shared_);  // gRPC owns and deletes interceptors
+    return new RpcMetricsInterceptor(info, metrics_);  // gRPC owns and deletes interceptors
   }
 
  private:
-  Shared shared_;
+  std::unique_ptr<RpcMetrics> owned_;
+  const RpcMetrics& metrics_;
 };
 
 }  // namespace
+
+RpcMetrics::RpcMetrics(Registry& registry, std::map<std::string, std::string> drive_families)
+    : registry_(registry), drive_families_(drive_families.begin(), drive_families.end()) {}
+
+const std::pair<const std::string, std::string>* RpcMetrics::FindDrive(
+    std::string_view name_field) const {
+  if (absl::StartsWith(absl::string_view(name_field.data(), name_field.size()), "drives/")) {
+    name_field.remove_prefix(7);
+  }
+  auto it = drive_families_.find(name_field);
+  return it == drive_families_.end() ? nullptr : &*it;
+}
+
+void RpcMetrics::Record(std::string_view service, std::string_view method,
+                        std::string_view transport,
+                        const std::pair<const std::string, std::string>* drive,
+                        grpc::StatusCode code, double seconds) const {
+  const char* code_name = CodeName(code);
+  Labels labels = CallLabels(service, method, transport);
+  registry_.GetHistogram(kDurationName, kDurationHelp, LatencyBuckets(), labels).Observe(seconds);
+  labels.emplace("code", code_name);
+  registry_.GetCounter(kRequestsName, kRequestsHelp, labels).Inc();
+  if (drive == nullptr) return;
+  registry_
+      .GetCounter(
+          kDriveRequestsName, kDriveRequestsHelp,
+          {{"drive", drive->first}, {"family", drive->second}, {"method", std::string(method)}})
+      .Inc();
+  if (code != grpc::StatusCode::OK) {
+    registry_
+        .GetCounter("drivegw_drive_request_errors_total",
+                    "API calls on one drive that did not end OK, by method and code.",
+                    {{"drive", drive->first},
+                     {"family", drive->second},
+                     {"method", std::string(method)},
+                     {"code", code_name}})
+        .Inc();
+  }
+}
+
+RpcMetrics::Method::Method(const RpcMetrics& metrics, std::string_view service,
+                           std::string_view method, std::string_view transport)
+    : metrics_(metrics), service_(service), method_(method), transport_(transport) {
+  for (const auto& [drive, family] : metrics.drive_families_) drive_requests_[drive];
+}
+
+void RpcMetrics::Method::Record(const std::pair<const std::string, std::string>* drive,
+                                grpc::StatusCode code, double seconds) const {
+  if (code != grpc::StatusCode::OK) {
+    metrics_.Record(service_, method_, transport_, drive, code, seconds);
+    return;
+  }
+  // A race between two first uses resolves the same series twice: harmless.
+  Histogram* duration = duration_.load(std::memory_order_acquire);
+  Counter* ok = ok_.load(std::memory_order_acquire);
+  if (duration == nullptr || ok == nullptr) {
+    Labels labels = CallLabels(service_, method_, transport_);
+    duration =
+        &metrics_.registry_.GetHistogram(kDurationName, kDurationHelp, LatencyBuckets(), labels);
+    labels.emplace("code", CodeName(grpc::StatusCode::OK));
+    ok = &metrics_.registry_.GetCounter(kRequestsName, kRequestsHelp, labels);
+    duration_.store(duration, std::memory_order_release);
+    ok_.store(ok, std::memory_order_release);
+  }
+  duration->Observe(seconds);
+  ok->Inc();
+  if (drive == nullptr) return;
+  auto it = drive_requests_.find(drive->first);
+  if (it == drive_requests_.end()) return;  // FindDrive's entries are all here
+  Counter* requests = it->second.load(std::memory_order_acquire);
+  if (requests == nullptr) {
+    requests = &metrics_.registry_.GetCounter(
+        kDriveRequestsName, kDriveRequestsHelp,
+        {{"drive", drive->first}, {"family", drive->second}, {"method", method_}});
+    it->second.store(requests, std::memory_order_release);
+  }
+  requests->Inc();
+}
+
+std::unique_ptr<gx::ServerInterceptorFactoryInterface> MakeRpcMetricsFactory(
+    const RpcMetrics& metrics) {
+  return std::make_unique<Factory>(metrics);
+}
 
 std::unique_ptr<gx::ServerInterceptorFactoryInterface> MakeRpcMetricsFactory(
     Registry& registry, std::map<std::string, std::string> drive_families) {

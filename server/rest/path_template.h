@@ -44,6 +44,9 @@ class PathTemplate {
   // template order, or nullopt when the path does not fit.
   std::optional<std::vector<PathBinding>> Match(std::string_view path) const;
 
+  // Match(path).has_value(), without allocating.
+  bool Fits(std::string_view path) const;
+
   const std::string& text() const { return text_; }
   const std::vector<Segment>& segments() const { return segments_; }
   const std::vector<Variable>& variables() const { return variables_; }
@@ -57,6 +60,9 @@ class PathTemplate {
   std::vector<Variable> variables_;
   std::string verb_;
 };
+
+// True when every '%' in `in` starts a complete escape (PercentDecode(in) succeeds).
+bool IsPercentEncoded(std::string_view in);
 
 // Percent-decodes `in` ("%41" -> "A"). With keep_slash, "%2F"/"%2f" stay encoded. With
 // plus_as_space ('+' -> ' '), for query strings. Returns nullopt on a malformed escape.

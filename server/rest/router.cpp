@@ -9,6 +9,7 @@
 #include <condition_variable>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -32,6 +33,7 @@
 #include "google/protobuf/util/json_util.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
+#include "server/rest/json_print.h"
 #include "server/rest/static_assets.h"
 
 namespace drivegw::rest {
@@ -289,11 +291,27 @@ absl::StatusOr<std::string> ResponseJson(const pb::Message& msg, const std::stri
     const auto* f = msg.GetDescriptor()->FindFieldByName(response_body);
     out = &msg.GetReflection()->GetMessage(msg, f);
   }
-  std::string json;
-  if (auto s = pb::util::MessageToJsonString(*out, &json, PrintOptions()); !s.ok()) {
-    return absl::InternalError(absl::StrCat("response to JSON: ", std::string(s.message())));
+  // PrintJson: MessageToJsonString's bytes, mostly without its cost (decision 1332).
+  auto json = PrintJson(*out);
+  if (!json.ok()) {
+    return absl::InternalError(absl::StrCat("response to JSON: ", json.status().message()));
   }
   return json;
+}
+
+// What a finished unary call answers, for the gRPC and the direct path alike: the mapped
+// error, or `out` (or its response_body part) as JSON.
+HttpResponse UnaryResponse(const grpc::Status& status, const pb::Message& out,
+                           const std::string& response_body) {
+  if (!status.ok()) return ErrorFromGrpc(status);
+  auto json = ResponseJson(out, response_body);
+  if (!json.ok()) return ErrorResponse(500, kInternal, std::string(json.status().message()));
+  return JsonResponse(200, *std::move(json));
+}
+
+std::unique_ptr<pb::Message> NewMessage(const pb::Descriptor* type) {
+  return std::unique_ptr<pb::Message>(
+      pb::MessageFactory::generated_factory()->GetPrototype(type)->New());
 }
 
 }  // namespace
@@ -511,14 +529,14 @@ class StreamReactor final : public grpc::ClientBidiReactor<grpc::ByteBuffer, grp
     }
     std::unique_ptr<pb::Message> msg(
         pb::MessageFactory::generated_factory()->GetPrototype(output_)->New());
-    std::string json;
-    if (!FromByteBuffer(response_, msg.get()) ||
-        !pb::util::MessageToJsonString(*msg, &json, PrintOptions()).ok()) {
+    absl::StatusOr<std::string> printed;
+    if (!FromByteBuffer(response_, msg.get()) || !(printed = PrintJson(*msg)).ok()) {
       log::Error("rest.stream_decode", log::Fields().Add("type", output_->full_name()));
       ctx_->TryCancel();
       ReleaseHold();
       return;
     }
+    std::string json = *std::move(printed);
     json += '\n';
     sink_->OnStreamMessage(std::move(json));
   }
@@ -611,6 +629,13 @@ absl::Status AddRoutes(const pb::MethodDescriptor* m, const google::api::HttpRul
                                                      " must name a singular message field"));
     }
   }
+  route.specificity = route.path.Specificity();
+  {
+    const auto& segs = route.path.segments();
+    const bool multi_last = !segs.empty() && segs.back().kind == PathTemplate::SegmentKind::kMulti;
+    route.min_segments = multi_last ? segs.size() - 1 : segs.size();
+    route.max_segments = multi_last ? std::numeric_limits<size_t>::max() : segs.size();
+  }
   route.method = m;
   route.grpc_path = absl::StrCat("/", m->service()->full_name(), "/", m->name());
   route.server_streaming = m->server_streaming();
@@ -658,13 +683,33 @@ absl::StatusOr<std::unique_ptr<Router>> Router::Create(RouterOptions options) {
       }
     }
   }
+  for (const auto& [path, handler] : options.direct_unary) {
+    bool found = false;
+    for (Route& route : routes) {
+      if (route.grpc_path != path) continue;
+      if (route.server_streaming || !handler) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("rest router: direct handler for ", path, " must be a unary method's"));
+      }
+      route.direct = handler;
+      found = true;
+    }
+    if (!found) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("rest router: direct handler for ", path, ": no route has that method"));
+    }
+  }
   return std::unique_ptr<Router>(new Router(std::move(options), std::move(routes)));
 }
 
 Router::Router(RouterOptions options, std::vector<Route> routes)
     : options_(std::move(options)),
       routes_(std::move(routes)),
-      inflight_(std::make_shared<Inflight>()) {}
+      inflight_(std::make_shared<Inflight>()) {
+  for (const Route& r : routes_) by_specificity_.push_back(&r);
+  std::stable_sort(by_specificity_.begin(), by_specificity_.end(),
+                   [](const Route* a, const Route* b) { return a->specificity > b->specificity; });
+}
 
 Router::~Router() {
   CancelAll();
@@ -703,15 +748,14 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
     const size_t q = target.find('?');
     const std::string_view path = target.substr(0, q);
     const std::string_view query = q == std::string_view::npos ? "" : target.substr(q + 1);
-    if (!PercentDecode(path)) {
+    if (!IsPercentEncoded(path)) {
       sink->OnResponse(ErrorResponse(
           400, kInvalidArgument,
           absl::StrCat("malformed percent-encoding in path ", absl::CHexEscape(Av(path)))));
       return;
     }
     const std::string& method = request.method;
-    if (auto fixed = options_.fixed_routes.find(std::string(path));
-        fixed != options_.fixed_routes.end()) {
+    if (auto fixed = options_.fixed_routes.find(path); fixed != options_.fixed_routes.end()) {
       if (method != "GET") {
         auto r = ErrorResponse(
             405, kUnimplemented,
@@ -742,32 +786,35 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
 
     // The most specific matching template wins; when it belongs to another method, 405
     // (Allow lists the methods whose templates match at that rank).
+    // Routes are tried most specific first (ties in rule order) and only down to the first
+    // fit's rank: the winner is the first fit of this method at that rank (Fits allocates
+    // nothing; the winner's variables are bound once, below).
+    const size_t segments = static_cast<size_t>(std::count(path.begin(), path.end(), '/'));
     const Route* best = nullptr;
-    std::vector<PathBinding> best_bindings;
-    int best_score = -1;
-    std::map<std::string, int> method_scores;
-    for (const Route& route : routes_) {
-      auto bindings = route.path.Match(path);
-      if (!bindings) continue;
-      const int score = route.path.Specificity();
-      int& top = method_scores.try_emplace(route.http_method, -1).first->second;
-      top = std::max(top, score);
-      if (route.http_method == method && score > best_score) {
-        best = &route;
-        best_score = score;
-        best_bindings = *std::move(bindings);
-      }
-    }
     int top_score = -1;
-    for (const auto& [m, score] : method_scores) top_score = std::max(top_score, score);
-    if (best != nullptr && best_score == top_score) {
-      HandleApi(*best, std::move(best_bindings), query, request, sink);
+    for (const Route* route : by_specificity_) {
+      if (route->specificity < top_score) break;
+      if (segments < route->min_segments || segments > route->max_segments) continue;
+      if (!route->path.Fits(path)) continue;
+      top_score = route->specificity;
+      if (best == nullptr && route->http_method == method) best = route;
+    }
+    if (best != nullptr) {
+      auto bindings = best->path.Match(path);
+      if (!bindings) {  // Fits and Match disagree: our bug
+        sink->OnResponse(ErrorResponse(500, kInternal, "rest router: path match inconsistent"));
+        return;
+      }
+      HandleApi(*best, *std::move(bindings), query, request, sink);
       return;
     }
-    if (!method_scores.empty()) {
-      std::vector<std::string> allowed;
-      for (const auto& [m, score] : method_scores) {
-        if (score == top_score) allowed.push_back(m);
+    if (top_score >= 0) {
+      // Allow: the methods whose templates match at the top rank, sorted and unique.
+      std::set<std::string> allowed;
+      for (const Route& route : routes_) {
+        if (route.specificity == top_score && route.path.Fits(path)) {
+          allowed.insert(route.http_method);
+        }
       }
       const std::string list = absl::StrJoin(allowed, ", ");
       auto r = ErrorResponse(
@@ -894,6 +941,11 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
     }
   }
 
+  if (route.direct) {
+    HandleDirect(route, *msg, request, sink);
+    return;
+  }
+
   std::string bytes;
   if (!msg->SerializeToString(&bytes)) {
     sink->OnResponse(ErrorResponse(500, kInternal, "request serialization failed"));
@@ -911,18 +963,28 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
   const pb::Descriptor* output = route.method->output_type();
   auto finish = [output, response_body = route.response_body](
                     const grpc::Status& status, const grpc::ByteBuffer& buffer) -> HttpResponse {
-    if (!status.ok()) return ErrorFromGrpc(status);
-    std::unique_ptr<pb::Message> out(
-        pb::MessageFactory::generated_factory()->GetPrototype(output)->New());
-    if (!FromByteBuffer(buffer, out.get())) {
+    std::unique_ptr<pb::Message> out = NewMessage(output);
+    if (status.ok() && !FromByteBuffer(buffer, out.get())) {
       return ErrorResponse(500, kInternal, absl::StrCat("cannot parse ", output->full_name()));
     }
-    auto json = ResponseJson(*out, response_body);
-    if (!json.ok()) return ErrorResponse(500, kInternal, std::string(json.status().message()));
-    return JsonResponse(200, *std::move(json));
+    return UnaryResponse(status, *out, response_body);
   };
   UnaryCall::Start(std::make_shared<UnaryCall>(std::move(ctx), ToByteBuffer(bytes), sink, finish),
                    stub, route.grpc_path, inflight_);
+}
+
+void Router::HandleDirect(const Route& route, const pb::Message& in, const HttpRequest& request,
+                          const std::shared_ptr<ResponseSink>& sink) {
+  {
+    std::lock_guard lock(inflight_->mu);  // the same 503 as a gRPC call refused by Inflight::Add
+    if (inflight_->stopping) {
+      sink->OnResponse(ErrorResponse(503, kUnavailable, "REST server is stopping"));
+      return;
+    }
+  }
+  std::unique_ptr<pb::Message> out = NewMessage(route.method->output_type());
+  const grpc::Status status = route.direct(request, in, out.get());
+  sink->OnResponse(UnaryResponse(status, *out, route.response_body));
 }
 
 void Router::HandleHealth(const std::shared_ptr<ResponseSink>& sink) noexcept {

@@ -2,6 +2,8 @@
 // call, JSON response (or an NDJSON stream) out. No Beast here; unit tests call it directly.
 #pragma once
 
+#include <grpcpp/support/status.h>
+
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -15,8 +17,9 @@
 #include "server/rest/path_template.h"
 
 namespace google::protobuf {
+class Message;
 class MethodDescriptor;
-}
+}  // namespace google::protobuf
 namespace grpc {
 class Channel;
 }
@@ -92,6 +95,20 @@ class ResponseSink {
   virtual void OnStreamEnd(HttpResponse end) noexcept = 0;
 };
 
+// A read-only unary method the router calls in process, inline on the calling (Beast) thread,
+// instead of the in-process gRPC call (decision 1331). It receives the request message the
+// router built and the HTTP request (for the caller's identity: peer, Authorization, client
+// certificate CN), must enforce everything the gRPC method and its interceptors do
+// (authentication, the method's role, RPC metrics), must not block, and returns the
+// grpc::Status the gRPC call would have ended with (error_details included), `out` filled when
+// OK. The router then maps both paths through the same code.
+using DirectUnary =
+    std::function<grpc::Status(const HttpRequest& request, const google::protobuf::Message& in,
+                               google::protobuf::Message* out)>;
+
+// Fixed GET routes by path; `std::less<>` so a request path is looked up without a copy.
+using FixedRoutes = std::map<std::string, std::function<HttpResponse()>, std::less<>>;
+
 struct RouterOptions {
   std::shared_ptr<grpc::Channel> channel;  // the gRPC server's InProcessChannel
   std::string service = "drivegw.v1.DriveService";
@@ -107,18 +124,27 @@ struct RouterOptions {
   std::chrono::milliseconds health_timeout{1000};
   // Fixed GET routes answered inline without gRPC (issue 7: /metrics, /readyz; decision 021);
   // other methods on them get 405. Handlers must be quick and thread-safe.
-  std::map<std::string, std::function<HttpResponse()>> fixed_routes;
+  FixedRoutes fixed_routes;
+  // Direct handlers by gRPC path ("/drivegw.v1.DriveService/GetDrive"); each must name a unary
+  // route's method (Create fails otherwise). Empty: every call goes through gRPC.
+  std::map<std::string, DirectUnary> direct_unary;
 };
 
 // One HTTP route derived from a google.api.http rule (binding).
 struct Route {
   std::string http_method;  // "GET", "POST", "PUT", "DELETE", "PATCH" or a custom kind
   PathTemplate path;
+  int specificity = 0;  // path.Specificity(), ranks overlapping templates
+  // Segment counts ("/"s) of the request paths the template can match: a cheap filter before
+  // PathTemplate::Fits.
+  size_t min_segments = 0;
+  size_t max_segments = 0;
   std::string body;           // "" (none), "*" or a request field name
   std::string response_body;  // "" or a response field name
   const google::protobuf::MethodDescriptor* method = nullptr;
   std::string grpc_path;  // "/drivegw.v1.DriveService/MoveAbsolute"
   bool server_streaming = false;
+  DirectUnary direct;  // set: served by RouterOptions::direct_unary, not over gRPC
 };
 
 class Router {
@@ -147,11 +173,15 @@ class Router {
   Router(RouterOptions options, std::vector<Route> routes);
   void HandleApi(const Route& route, std::vector<PathBinding> bindings, std::string_view query,
                  HttpRequest& request, const std::shared_ptr<ResponseSink>& sink) noexcept;
+  void HandleDirect(const Route& route, const google::protobuf::Message& in,
+                    const HttpRequest& request, const std::shared_ptr<ResponseSink>& sink);
   void HandleHealth(const std::shared_ptr<ResponseSink>& sink) noexcept;
   HttpResponse ServeStatic(std::string_view path) const;
 
   RouterOptions options_;
   std::vector<Route> routes_;
+  // routes_ by descending specificity, ties in routes_ order: matching stops below the first fit.
+  std::vector<const Route*> by_specificity_;
   std::shared_ptr<Inflight> inflight_;
 };
 

@@ -64,6 +64,11 @@ bool IsParseError(const error_code& ec) {
   return ec.category() == http::make_error_code(http::error::bad_target).category();
 }
 
+// The Exchange whose request the router is handling on this thread right now (set around
+// Router::Handle in Session::OnRead, which runs on the session's strand): a response it gets
+// inline is stored directly instead of being posted back to the strand it is already on.
+thread_local const void* t_inline_exchange = nullptr;
+
 // State every session reads; owned by RestServer::Impl, which outlives the sessions.
 struct Shared {
   RestOptions options;
@@ -303,7 +308,11 @@ class Session final : public SessionBase {
     const uint64_t id = slot.id;
     slots_.push_back(std::move(slot));
     UpdateIdleDeadline();
-    shared_.router->Handle(std::move(request), std::make_shared<Exchange>(Self(), id));
+    auto exchange = std::make_shared<Exchange>(Self(), id);
+    t_inline_exchange = exchange.get();
+    shared_.router->Handle(std::move(request), std::move(exchange));
+    t_inline_exchange = nullptr;
+    Pump();    // an answer given inline (fixed routes, direct reads, early errors)
     DoRead();  // read ahead (pipelining) and notice a client that goes away
   }
 
@@ -325,18 +334,36 @@ class Session final : public SessionBase {
   // A request must arrive in full within read_timeout of the connection going idle (no
   // response pending): idle keep-alive connections and slow senders are closed; read-ahead
   // while responses are pending or streaming has no deadline of its own.
+  // Deadlines are values: moving one costs no timer operation. Each timer is armed at most once
+  // at a time and, when it fires early because its deadline moved, re-arms itself for the new
+  // one (cancelling and re-arming per request cost a timerfd update and an aborted handler on
+  // the strand each, twice per request; issue 10, P4).
   void UpdateIdleDeadline() {
     if (slots_.empty() && reading_) {
-      idle_timer_.expires_after(shared_.options.read_timeout);
-      idle_timer_.async_wait([self = Self()](error_code ec) {
-        if (!ec && self->slots_.empty() && Expired(self->idle_timer_)) {
-          log::Debug("rest.idle_timeout", log::Fields().Add("peer", self->peer_));
-          self->DoClose();
-        }
-      });
+      idle_deadline_ = net::steady_timer::clock_type::now() + shared_.options.read_timeout;
+      ArmIdleTimer();
     } else {
-      idle_timer_.cancel();
+      idle_deadline_ = net::steady_timer::time_point::max();  // not idle: no deadline
     }
+  }
+
+  void ArmIdleTimer() {
+    if (idle_armed_ || closed_) return;
+    idle_armed_ = true;
+    idle_timer_.expires_at(idle_deadline_);
+    idle_timer_.async_wait([self = Self()](error_code ec) {
+      self->idle_armed_ = false;
+      if (ec || self->closed_ || self->idle_deadline_ == net::steady_timer::time_point::max()) {
+        return;  // cancelled, closed, or busy (the next idle period arms it again)
+      }
+      if (net::steady_timer::clock_type::now() < self->idle_deadline_) {
+        return self->ArmIdleTimer();  // the deadline moved on
+      }
+      if (self->slots_.empty() && self->reading_) {
+        log::Debug("rest.idle_timeout", log::Fields().Add("peer", self->peer_));
+        self->DoClose();
+      }
+    });
   }
 
   // --- writing ---
@@ -365,33 +392,47 @@ class Session final : public SessionBase {
     }
   }
 
+  // Every write must finish within read_timeout; a lazy deadline as UpdateIdleDeadline's.
   void StartWriteDeadline() {
     writing_ = true;
-    write_timer_.expires_after(shared_.options.read_timeout);
+    write_deadline_ = net::steady_timer::clock_type::now() + shared_.options.read_timeout;
+    ArmWriteTimer();
+  }
+
+  void ArmWriteTimer() {
+    if (write_armed_ || closed_) return;
+    write_armed_ = true;
+    write_timer_.expires_at(write_deadline_);
     write_timer_.async_wait([self = Self()](error_code ec) {
-      if (!ec && self->writing_ && Expired(self->write_timer_)) {
-        log::Debug("rest.write_timeout", log::Fields().Add("peer", self->peer_));
-        self->DoClose();
+      self->write_armed_ = false;
+      if (ec || self->closed_ || !self->writing_) return;  // the next write arms it again
+      if (net::steady_timer::clock_type::now() < self->write_deadline_) {
+        return self->ArmWriteTimer();  // the deadline moved on
       }
+      log::Debug("rest.write_timeout", log::Fields().Add("peer", self->peer_));
+      self->DoClose();
     });
   }
 
   bool KeepAlive(const Slot& s) const { return s.keep_alive && !peer_done_ && accepting_; }
 
-  void WriteWhole(Slot& s, const HttpResponse& r) {
+  // Takes r.body: the slot is done with once written.
+  void WriteWhole(Slot& s, HttpResponse& r) {
     auto res = std::make_shared<http::response<http::string_body>>(
         static_cast<http::status>(r.status), s.version);
     res->set(http::field::server, "drivegw");
     res->set(http::field::content_type, r.content_type);
     for (const auto& [name, value] : r.headers) res->set(name, value);
     res->keep_alive(KeepAlive(s));
-    res->body() = r.body;
+    res->body() = std::move(r.body);
     res->prepare_payload();
-    log::Debug("rest.response", log::Fields()
-                                    .Add("peer", peer_)
-                                    .Add("method", s.method)
-                                    .Add("target", s.target)
-                                    .Add("status", r.status));
+    if (log::Enabled(log::Level::kDebug)) {  // the fields cost more than the check
+      log::Debug("rest.response", log::Fields()
+                                      .Add("peer", peer_)
+                                      .Add("method", s.method)
+                                      .Add("target", s.target)
+                                      .Add("status", r.status));
+    }
     StartWriteDeadline();
     http::async_write(stream_, *res, [self = Self(), res](error_code ec, size_t) {
       self->OnWritten(ec, /*done=*/true, !res->keep_alive());
@@ -445,8 +486,7 @@ class Session final : public SessionBase {
   }
 
   void OnWritten(error_code ec, bool done, bool close) {
-    writing_ = false;
-    write_timer_.cancel();
+    writing_ = false;  // the write timer, if it fires, sees nothing to watch
     if (closed_) return;
     if (ec) {
       log::Debug("rest.write", log::Fields().Add("peer", peer_).Add("error", ec.message()));
@@ -518,6 +558,10 @@ class Session final : public SessionBase {
     Exchange(std::shared_ptr<Session> session, uint64_t id)
         : session_(std::move(session)), id_(id) {}
     void OnResponse(HttpResponse response) noexcept override {
+      if (t_inline_exchange == this) {  // inside Handle, on the strand: OnRead pumps next
+        if (Slot* s = session_->Find(id_)) s->response = std::move(response);
+        return;
+      }
       Post([s = session_, id = id_, r = std::move(response)]() mutable {
         s->OnResponse(id, std::move(r));
       });
@@ -560,6 +604,10 @@ class Session final : public SessionBase {
   std::optional<http::request_parser<http::string_body>> parser_;
   net::steady_timer idle_timer_;
   net::steady_timer write_timer_;
+  net::steady_timer::time_point idle_deadline_ = net::steady_timer::time_point::max();
+  net::steady_timer::time_point write_deadline_ = net::steady_timer::time_point::max();
+  bool idle_armed_ = false;   // an ArmIdleTimer wait is pending
+  bool write_armed_ = false;  // an ArmWriteTimer wait is pending
   std::deque<Slot> slots_;
   uint64_t next_id_ = 1;
   bool reading_ = false;
@@ -618,6 +666,7 @@ absl::StatusOr<std::unique_ptr<RestServer>> RestServer::Start(RestOptions option
   router_options.static_dir = options.static_dir;
   router_options.web_assets = options.web_assets;
   router_options.fixed_routes = options.fixed_routes;
+  router_options.direct_unary = options.direct_unary;
   auto router = Router::Create(std::move(router_options));
   if (!router.ok()) return router.status();
 

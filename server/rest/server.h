@@ -47,7 +47,10 @@ struct RestOptions {
   // MBs). With it, what a stalled browser costs is this plus one snapshot per drive (decision 504).
   int ws_send_buffer = 64 * 1024;
   // RouterOptions::fixed_routes (GET /metrics, /readyz; decision 021).
-  std::map<std::string, std::function<HttpResponse()>> fixed_routes;
+  FixedRoutes fixed_routes;
+  // RouterOptions::direct_unary: read-only unary methods served without the gRPC hop
+  // (decision 1331).
+  std::map<std::string, DirectUnary> direct_unary;
 };
 
 class RestServer {

@@ -144,6 +144,58 @@ TEST(PathTemplateMatch, Specificity_LiteralsAndVerbRankHigher) {
   EXPECT_GT(MustParse("/v1/drives/{id}").Specificity(), MustParse("/v1/{a}/{b}").Specificity());
 }
 
+// Routing ranks with Fits and binds with Match (router.cpp): they must accept the same paths.
+TEST(PathTemplateFits, EveryTemplateAndPath_SameAnswerAsMatch) {
+  const char* templates[] = {"/v1/drives",
+                             "/v1/{name=drives/*}",
+                             "/v1/{name=drives/*}:enable",
+                             "/v1/{name=drives/*/commands/*}",
+                             "/v1/{name=drives/*}/parameters/{parameter_id}",
+                             "/v1/drives:watch",
+                             "/files/**",
+                             "/v1/{path=files/**}",
+                             "/v1/*/x/{id}",
+                             "/v1/a%2Fb"};
+  const char* paths[] = {"/v1/drives",
+                         "/v1/drives/",
+                         "/v1/drives/x1",
+                         "/v1/drives/x%31",
+                         "/v1/drives/x%zz",
+                         "/v1/drives/x%2",
+                         "/v1/drives/x1:enable",
+                         "/v1/drives/x1:enabl",
+                         "/v1/drives/x1%3Aenable",
+                         "/v1/drives:watch",
+                         "/v1/drives/x1/commands/7",
+                         "/v1/drives//commands/7",
+                         "/v1/drives/x1/parameters/1234",
+                         "/v1/drives/x1/parameters/%zz",
+                         "/files",
+                         "/files/",
+                         "/files/a/b/c",
+                         "/files/a/%zz",
+                         "/v1/files",
+                         "/v1/files/a/b%2Fc",
+                         "/v1/files/a/%g0",
+                         "/v1/q/x/7",
+                         "/v1/%zz/x/7",
+                         "/v1/q/x/%zz",
+                         "/v1/a%2Fb",
+                         "/v1/a%2fb",
+                         "/v1/a/b",
+                         "",
+                         "v1/drives",
+                         "/",
+                         "/v1/dr%69ves",
+                         "/v1/drives/x1:"};
+  for (const char* text : templates) {
+    const PathTemplate t = MustParse(text);
+    for (const char* path : paths) {
+      EXPECT_EQ(t.Fits(path), t.Match(path).has_value()) << text << " vs " << path;
+    }
+  }
+}
+
 TEST(PercentDecode, Escapes_DecodedOrRejected) {
   EXPECT_EQ(*PercentDecode("a%41%62"), "aAb");
   EXPECT_EQ(*PercentDecode("a+b", false, true), "a b");

@@ -1,0 +1,297 @@
+// The REST direct read path (decision 1331) against the in-process gRPC path it replaces: one
+// service core over fake drives, the real DriveServiceGrpc with CallAuth (auth enabled, tokens
+// in SQLite, auth.denied audited) and the RPC metrics interceptor on a grpc::Server, and two
+// routers on its in-process channel — one plain, one with DriveServiceDirectReads. Every
+// request must get the same status, headers and body from both, record the same RPC metrics
+// series and the same audit entries.
+#include "server/rest/direct_reads.h"
+
+#include <gmock/gmock.h>
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "adapters/core/clock.h"
+#include "server/auth/authenticator.h"
+#include "server/core/drive_service.h"
+#include "server/grpc/call_auth.h"
+#include "server/grpc/drive_service_grpc.h"
+#include "server/grpc/worker_pool.h"
+#include "server/ops/metrics.h"
+#include "server/ops/rpc_metrics.h"
+#include "server/rest/router.h"
+#include "storage/audit_log.h"
+#include "storage/db.h"
+#include "storage/migrations.h"
+#include "storage/token_repo.h"
+#include "tests/server/core/core_test_support.h"
+#include "tests/server/rest/recording_sink.h"
+
+namespace drivegw::rest {
+namespace {
+
+using test_support::RecordingSink;
+using ::testing::HasSubstr;
+
+class DirectReadsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/drivegw-direct-XXXXXX";
+    ASSERT_NE(::mkdtemp(tmpl), nullptr);
+    dir_ = tmpl;
+    auto db = storage::Db::Open((std::filesystem::path(dir_) / "drivegw.db").string());
+    ASSERT_TRUE(db.ok()) << db.status();
+    db_ = std::make_unique<storage::Db>(std::move(*db));
+    ASSERT_TRUE(storage::Migrate(*db_).ok());
+    tokens_ = std::make_unique<storage::TokenRepo>(*db_);
+    audit_ = std::make_unique<storage::AuditLog>(*db_);
+    auth::AuthOptions ao;
+    ao.enabled = true;
+    authenticator_ = std::make_unique<auth::Authenticator>(std::move(ao), tokens_.get());
+    // A manual clock for the refusal rate window: the test advances it so no refusal is
+    // suppressed and both paths' audit entries can be compared one by one.
+    call_auth_ = std::make_unique<server::CallAuth>(*authenticator_, audit_.get(), clock_);
+    for (const char* role : {"viewer", "admin"}) {
+      auto t = tokens_->Create(std::string("direct-") + role, role);
+      ASSERT_TRUE(t.ok()) << t.status();
+      token_[role] = t->token;
+    }
+    // Drives in every state the core reports, of several families.
+    const DriveState states[] = {DriveState::kOffline, DriveState::kDisabled, DriveState::kReady,
+                                 DriveState::kEnabled, DriveState::kMoving,   DriveState::kHoming,
+                                 DriveState::kFault};
+    const char* families[] = {"linudp", "trinamic", "stober", "devicenet"};
+    std::map<std::string, std::string> by_family;
+    for (size_t i = 0; i < std::size(states); ++i) {
+      const std::string name = "x" + std::to_string(i + 1);
+      fleet_.Add(name, families[i % std::size(families)], false).SetState(states[i]);
+      by_family[name] = families[i % std::size(families)];
+    }
+    core_ = std::make_unique<server::DriveServiceCore>(fleet_.drives(), audit_.get());
+    pool_ = std::make_unique<server::WorkerPool>(2);
+    service_ = std::make_unique<server::DriveServiceGrpc>(*core_, *pool_, *call_auth_);
+    metrics_ = std::make_unique<ops::RpcMetrics>(registry_, by_family);
+    grpc::ServerBuilder builder;
+    std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
+    creators.push_back(ops::MakeRpcMetricsFactory(*metrics_));
+    builder.experimental().SetInterceptorCreators(std::move(creators));
+    builder.RegisterService(service_.get());
+    server_ = builder.BuildAndStart();
+    ASSERT_NE(server_, nullptr);
+    auto channel = server_->InProcessChannel(grpc::ChannelArguments());
+
+    RouterOptions plain;
+    plain.channel = channel;
+    auto a = Router::Create(plain);
+    ASSERT_TRUE(a.ok()) << a.status();
+    grpc_router_ = *std::move(a);
+    RouterOptions direct = plain;
+    direct.direct_unary = DriveServiceDirectReads(*core_, *call_auth_, *metrics_);
+    auto b = Router::Create(direct);
+    ASSERT_TRUE(b.ok()) << b.status();
+    direct_router_ = *std::move(b);
+  }
+
+  void TearDown() override {
+    direct_router_.reset();
+    grpc_router_.reset();
+    if (server_) server_->Shutdown();
+    server_.reset();
+    service_.reset();
+    pool_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+
+  static HttpResponse Ask(Router& router, const HttpRequest& request) {
+    auto sink = std::make_shared<RecordingSink>();
+    router.Handle(request, sink);
+    return sink->Response();
+  }
+
+  HttpRequest Get(std::string target, const std::string& token) {
+    HttpRequest r;
+    r.method = "GET";
+    r.target = std::move(target);
+    r.peer = "127.0.0.1:40000";
+    if (!token.empty()) r.authorization = "Bearer " + token;
+    return r;
+  }
+
+  // Every RPC metrics sample the registry renders, by series; the latency histogram's buckets
+  // and sum are left out (two calls take different times), its count is kept.
+  std::map<std::string, double> Samples() const {
+    std::map<std::string, double> out;
+    const std::string text = registry_.Render();
+    size_t start = 0;
+    while (start < text.size()) {
+      size_t end = text.find('\n', start);
+      if (end == std::string::npos) end = text.size();
+      const std::string line = text.substr(start, end - start);
+      start = end + 1;
+      if (line.empty() || line[0] == '#') continue;
+      if (line.find("_bucket{") != std::string::npos || line.find("_sum{") != std::string::npos) {
+        continue;
+      }
+      const size_t space = line.rfind(' ');
+      out[line.substr(0, space)] = std::stod(line.substr(space + 1));
+    }
+    return out;
+  }
+
+  // What changed from `before` to `after`, series by series.
+  static std::map<std::string, double> Increments(const std::map<std::string, double>& before,
+                                                  const std::map<std::string, double>& after) {
+    std::map<std::string, double> out;
+    for (const auto& [series, value] : after) {
+      auto it = before.find(series);
+      const double d = value - (it == before.end() ? 0 : it->second);
+      if (d != 0) out[series] = d;
+    }
+    return out;
+  }
+
+  // auth.denied entries: everything but time, ids and hashes.
+  std::vector<std::string> Denials() {
+    storage::AuditQuery q;
+    q.action = "auth.denied";
+    q.ascending = true;
+    q.limit = storage::AuditQuery::kMaxLimit;
+    auto records = audit_->Query(q);
+    EXPECT_TRUE(records.ok()) << records.status();
+    std::vector<std::string> out;
+    for (const auto& r : records.value_or(std::vector<storage::AuditRecord>{})) {
+      out.push_back(r.principal + "|" + r.role + "|" + r.source_address + "|" + r.drive + "|" +
+                    r.action + "|" + r.request_json + "|" + std::to_string(r.result_code) + "|" +
+                    r.result_message);
+    }
+    return out;
+  }
+
+  std::string dir_;
+  ManualClock clock_;
+  std::unique_ptr<storage::Db> db_;
+  std::unique_ptr<storage::TokenRepo> tokens_;
+  std::unique_ptr<storage::AuditLog> audit_;
+  std::unique_ptr<auth::Authenticator> authenticator_;
+  std::unique_ptr<server::CallAuth> call_auth_;
+  std::map<std::string, std::string> token_;
+  server::test_support::FakeFleet fleet_;
+  std::unique_ptr<server::DriveServiceCore> core_;
+  std::unique_ptr<server::WorkerPool> pool_;
+  std::unique_ptr<server::DriveServiceGrpc> service_;
+  ops::Registry registry_;
+  std::unique_ptr<ops::RpcMetrics> metrics_;
+  std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<Router> grpc_router_;
+  std::unique_ptr<Router> direct_router_;
+};
+
+TEST_F(DirectReadsTest, Create_RoutesTheThreeReadsDirectly) {
+  std::vector<std::string> direct;
+  for (const Route& r : direct_router_->routes()) {
+    if (r.direct) direct.push_back(r.grpc_path);
+  }
+  EXPECT_THAT(direct, ::testing::UnorderedElementsAre("/drivegw.v1.DriveService/ListDrives",
+                                                      "/drivegw.v1.DriveService/GetDrive",
+                                                      "/drivegw.v1.DriveService/GetCommand"));
+  for (const Route& r : grpc_router_->routes()) EXPECT_FALSE(r.direct) << r.grpc_path;
+}
+
+TEST_F(DirectReadsTest, Create_HandlerForStreamingOrUnknownMethod_InvalidArgument) {
+  RouterOptions o;
+  o.channel = server_->InProcessChannel(grpc::ChannelArguments());
+  o.direct_unary["/drivegw.v1.DriveService/WatchDrives"] = direct_router_->routes()[0].direct;
+  EXPECT_EQ(Router::Create(o).status().code(), absl::StatusCode::kInvalidArgument);
+  o.direct_unary.clear();
+  o.direct_unary["/drivegw.v1.DriveService/NoSuchMethod"] = direct_router_->routes()[0].direct;
+  EXPECT_EQ(Router::Create(o).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+// The same answer, byte for byte, from both paths: every drive and state, the list, commands,
+// and the errors (no token 401, bad token 401, unknown drive 404, bad command name 400, bad
+// query 400), for each credential.
+TEST_F(DirectReadsTest, Handle_SameResponsesMetricsAndAuditAsGrpcPath) {
+  std::vector<std::string> targets = {"/v1/drives",
+                                      "/v1/drives?unknown_field=1",
+                                      "/v1/drives/nope",
+                                      "/v1/drives/x1?name=drives/x2",
+                                      "/v1/drives/x1/commands/17",
+                                      "/v1/drives/x1/commands/abc",
+                                      "/v1/drives/nope/commands/1",
+                                      "/v1/drives/x%zz"};
+  for (size_t i = 1; i <= 7; ++i) targets.push_back("/v1/drives/x" + std::to_string(i));
+  const std::vector<std::string> tokens = {"", "dgw_0000000000000000_not-a-real-token",
+                                           token_["viewer"], token_["admin"]};
+  std::set<int> statuses;
+  std::map<std::string, double> before = Samples();
+  size_t denied_before = Denials().size();
+  for (const std::string& target : targets) {
+    for (const std::string& token : tokens) {
+      SCOPED_TRACE(target + " token=" + token.substr(0, 8));
+      const HttpRequest request = Get(target, token);
+      const HttpResponse via_grpc = Ask(*grpc_router_, request);
+      clock_.Advance(std::chrono::seconds(2));  // a fresh refusal window for each call
+      const std::map<std::string, double> after_grpc = Samples();
+      const std::vector<std::string> denied_grpc = Denials();
+
+      const HttpResponse direct = Ask(*direct_router_, request);
+      clock_.Advance(std::chrono::seconds(2));
+      EXPECT_EQ(direct.status, via_grpc.status);
+      EXPECT_EQ(direct.content_type, via_grpc.content_type);
+      EXPECT_EQ(direct.headers, via_grpc.headers);
+      EXPECT_EQ(direct.body, via_grpc.body);
+      statuses.insert(direct.status);
+
+      // The direct call counted exactly what the gRPC call counted.
+      const std::map<std::string, double> after_direct = Samples();
+      EXPECT_EQ(Increments(after_grpc, after_direct), Increments(before, after_grpc));
+      before = after_direct;
+
+      // Refusals are audited once per path, alike (principal, code, method, source).
+      const std::vector<std::string> denied = Denials();
+      const size_t n_grpc = denied_grpc.size() - denied_before;
+      ASSERT_EQ(denied.size() - denied_grpc.size(), n_grpc);
+      for (size_t k = 0; k < n_grpc; ++k) {
+        EXPECT_EQ(denied[denied_grpc.size() + k], denied_grpc[denied_before + k]);
+      }
+      denied_before = denied.size();
+    }
+  }
+  // The cases cover success, the request errors and both refusals.
+  EXPECT_THAT(statuses, ::testing::IsSupersetOf({200, 400, 401, 404}));
+}
+
+TEST_F(DirectReadsTest, Handle_GetDrive_CountsRestTransportAndDrive) {
+  const HttpResponse r = Ask(*direct_router_, Get("/v1/drives/x2", token_["viewer"]));
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_THAT(r.body, HasSubstr("\"name\":\"drives/x2\""));
+  std::map<std::string, double> m = Samples();
+  EXPECT_EQ(m["drivegw_rpc_requests_total{code=\"OK\",method=\"GetDrive\","
+              "service=\"drivegw.v1.DriveService\",transport=\"rest\"}"],
+            1);
+  EXPECT_EQ(m["drivegw_drive_requests_total{drive=\"x2\",family=\"trinamic\",method=\"GetDrive\"}"],
+            1);
+  EXPECT_EQ(m["drivegw_rpc_duration_seconds_count{method=\"GetDrive\","
+              "service=\"drivegw.v1.DriveService\",transport=\"rest\"}"],
+            1);
+}
+
+TEST_F(DirectReadsTest, Handle_AfterCancelAll_503LikeGrpcPath) {
+  grpc_router_->CancelAll();
+  direct_router_->CancelAll();
+  const HttpRequest request = Get("/v1/drives/x1", token_["viewer"]);
+  const HttpResponse a = Ask(*grpc_router_, request);
+  const HttpResponse b = Ask(*direct_router_, request);
+  EXPECT_EQ(b.status, 503);
+  EXPECT_EQ(b.status, a.status);
+  EXPECT_EQ(b.body, a.body);
+}
+
+}  // namespace
+}  // namespace drivegw::rest
