@@ -274,9 +274,11 @@ class CanopenMaster {
     TimePoint frame_deadline{};  // the current exchange's
     TimePoint started_at{};      // first frame sent
     bool started = false;
-    bool done = false;
     absl::StatusOr<std::vector<uint8_t>> result = std::vector<uint8_t>();
-    std::condition_variable cv;
+    // 0 until `result` is final (stored with release after it). The caller waits on this word
+    // alone, not on a condition variable bound to mu_: the completing thread holds mu_, and a
+    // woken waiter would block on it at once and need a second wake-up (decision 1321).
+    std::atomic<uint32_t> done{0};
   };
   struct Heartbeat {
     Duration consumer_time{};  // zero: not supervised
@@ -321,6 +323,10 @@ class CanopenMaster {
   // SDO plumbing (master_sdo.cpp).
   absl::StatusOr<std::vector<uint8_t>> Transfer(uint8_t node, SdoClientTransfer transfer,
                                                 TimePoint deadline);
+  // With mu_ held (via `lock`): the caller reads the channel itself until `r` is done, the bus
+  // fails or the master stops, taking turns with the receive thread and other callers
+  // (decision 1321).
+  void ReadUntilDoneLocked(std::unique_lock<std::mutex>& lock, uint8_t node, SdoRequest& r);
   void ApplySdoStepLocked(Node& n, SdoStep step, TimePoint now);
   // Expires queued and active transfers; returns the node's next SDO deadline (or `next`).
   TimePoint ServiceSdoLocked(Node& n, TimePoint now, TimePoint next);
@@ -354,7 +360,10 @@ class CanopenMaster {
   absl::Status SendFrame(const transport::CanFrame& frame);
   // Logs `frame` for the traced node it carries (SetNodeTrace); `node` 0: from the identifier.
   void TraceFrame(const transport::CanFrame& frame, const char* dir, uint8_t node = 0);
+  // Makes whoever is inside channel_->Receive return (the receive thread or a reading caller).
   void WakeReceiver();
+  // With mu_ held: the receive thread re-reads the clock, wherever it waits (decision 1321).
+  void NudgeLocked();
   bool OnReceiveThread() const { return std::this_thread::get_id() == receive_thread_id_.load(); }
   bool HasObserverLocked(uint8_t node) const;
 
@@ -381,6 +390,14 @@ class CanopenMaster {
   std::map<std::pair<uint8_t, uint16_t>, uint16_t> tpdo_cob_;     // configured; 0 = invalid
   std::map<uint16_t, std::pair<uint8_t, uint16_t>> tpdo_by_cob_;  // configured and valid
   std::vector<Notification> pending_;  // filled under mu_, delivered by Dispatch
+  // Who is inside channel_->Receive (decision 1321): the receive thread, an SDO caller waiting
+  // for its answer, or nobody (between two reads).
+  enum class Reader : uint8_t { kNone, kThread, kCaller };
+  Reader reader_ = Reader::kNone;
+  int readers_wanted_ = 0;             // SDO callers that want to read for their answer
+  bool thread_nudged_ = false;         // NudgeLocked since the receive thread last looked
+  std::condition_variable thread_cv_;  // the receive thread, while callers read
+  std::condition_variable caller_cv_;  // callers, for the channel or their completion
   MasterCounters counters_;            // except frames_out / send_errors
 
   std::atomic<bool> tracing_{false};
