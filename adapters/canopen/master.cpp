@@ -18,6 +18,11 @@ namespace {
 // often even on a silent bus (decision 1111).
 constexpr Duration kIdleWait = std::chrono::milliseconds(100);
 
+// While SDO callers read the channel (decision 1321), the receive thread looks this often whether
+// they are done: a caller hands the channel back without waking it, so a frame arriving after the
+// last answer of a burst waits at most this long (plus timer slack) before it is read.
+constexpr Duration kReaderCheck = std::chrono::milliseconds(1);
+
 int64_t Ms(Duration d) { return std::chrono::duration_cast<std::chrono::milliseconds>(d).count(); }
 
 // Predefined-set TPDO number of a function code (CiA 301 Table 72), 0 for other functions.
@@ -330,7 +335,7 @@ void CanopenMaster::Run() {
       lock.unlock();
       Dispatch();
       lock.lock();
-      thread_cv_.wait_for(lock, wait, [&] {
+      thread_cv_.wait_for(lock, std::min(wait, kReaderCheck), [&] {
         return stopping_ || readers_wanted_ == 0 || thread_nudged_ || !pending_.empty();
       });
       continue;
