@@ -753,6 +753,23 @@ void BenchPacedSdo(double seconds, int& port) {
         {"bare_pingpong_unpaced_per_s", Median(bare_unpaced)},
         {"failures", failures},
         {"loadavg", LoadAverage()}}});
+  // The floor this host and bus model allow a request/response operation: the same exchange with
+  // no protocol stack, no simulated device and no thread hand-off (decision 1321). Informational:
+  // the SDO ratio is not expected above it.
+  drivegw::bench::Report(
+      {"P3",
+       "canopen_bare_pingpong_ratio",
+       Median(bare) / bare_theory,
+       "ratio",
+       "",
+       "floor: bare ping-pong of two 8-byte frames between two channels paced at 500000 bit/s, "
+       "same run / (bit rate / bits per exchange)",
+       {{"bare_pingpong_per_s", Median(bare)},
+        {"theory_per_s", bare_theory},
+        {"bits_per_exchange", bare_bits},
+        {"sdo_ratio_of_floor",
+         Median(bare) > 0 ? (rate / theory) / (Median(bare) / bare_theory) : 0.0},
+        {"loadavg", LoadAverage()}}});
 }
 
 }  // namespace

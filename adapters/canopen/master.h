@@ -184,8 +184,10 @@ class CanopenMaster {
   // --- NMT (CiA 301 §7.2.8.3.1). node 0 = all nodes.
   absl::Status SendNmt(NmtCommand command, uint8_t node);
 
-  // --- SDO client (blocking; not on the receive thread). `deadline` bounds the whole call
-  // including the wait behind other transfers of the node; each frame exchange is bounded by
+  // --- SDO client (blocking; not on the receive thread). While it waits, the caller reads the
+  // channel itself and handles what arrives, in turn with the receive thread and other callers
+  // (decision 1321); observers are still called on the receive thread. `deadline` bounds the whole
+  // call including the wait behind other transfers of the node; each frame exchange is bounded by
   // options.sdo_timeout. Errors name node and index:sub; server aborts carry the code
   // (AbortCodeOf) and its name, time-outs are DeadlineExceeded after abort 0504 0000h was sent.
   absl::StatusOr<std::vector<uint8_t>> Upload(uint8_t node, uint16_t index, uint8_t sub,
@@ -269,7 +271,9 @@ class CanopenMaster {
   struct SdoRequest {
     explicit SdoRequest(SdoClientTransfer t) : transfer(std::move(t)) {}
     SdoClientTransfer transfer;
-    std::string context;         // "sdo upload 0x6041:00 node 5"
+    uint8_t node = 0;
+    // "sdo upload 0x6041:00 node 5", for errors.
+    std::string context() const;
     TimePoint deadline{};        // the caller's
     TimePoint frame_deadline{};  // the current exchange's
     TimePoint started_at{};      // first frame sent
