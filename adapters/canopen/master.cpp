@@ -18,11 +18,6 @@ namespace {
 // often even on a silent bus (decision 1111).
 constexpr Duration kIdleWait = std::chrono::milliseconds(100);
 
-// While SDO callers read the channel (decision 1321), the receive thread looks this often whether
-// they are done: a caller hands the channel back without waking it, so a frame arriving after the
-// last answer of a burst waits at most this long (plus timer slack) before it is read.
-constexpr Duration kReaderCheck = std::chrono::milliseconds(1);
-
 int64_t Ms(Duration d) { return std::chrono::duration_cast<std::chrono::milliseconds>(d).count(); }
 
 // Predefined-set TPDO number of a function code (CiA 301 Table 72), 0 for other functions.
@@ -116,8 +111,6 @@ void CanopenMaster::Stop() {
     std::lock_guard lock(mu_);
     stopping_ = true;
     stop_cv_.notify_all();
-    thread_cv_.notify_all();
-    caller_cv_.notify_all();
   }
   {
     // StartSync checks stopping_ under the same mutex, so no SYNC thread starts after this.
@@ -156,20 +149,11 @@ std::optional<NmtState> CanopenMaster::node_state(uint8_t node) const {
   return it->second.nmt;
 }
 
-void CanopenMaster::Wake() {
-  std::lock_guard lock(mu_);
-  NudgeLocked();
-}
+void CanopenMaster::Wake() { WakeReceiver(); }
 
 void CanopenMaster::WakeReceiver() {
   std::shared_lock lock(channel_mu_);
   channel_->Wake();
-}
-
-void CanopenMaster::NudgeLocked() {
-  thread_nudged_ = true;
-  thread_cv_.notify_one();
-  WakeReceiver();  // lock order mu_ → channel_mu_
 }
 
 void CanopenMaster::SetNodeLabel(uint8_t node, const std::string& family,
@@ -327,27 +311,11 @@ void CanopenMaster::Run() {
     CheckBusStateLocked(now);
     const Duration wait = ServiceLocked(now);
     planned_wake_ = now + wait;
-    if (readers_wanted_ > 0 && fault_ == BusFault::kNone) {
-      // An SDO caller reads the channel for its answer (ReadUntilDoneLocked, decision 1321):
-      // this thread keeps the timers and delivers what the caller's frames queued.
-      thread_nudged_ = false;
-      caller_cv_.notify_all();  // the channel is free
-      lock.unlock();
-      Dispatch();
-      lock.lock();
-      thread_cv_.wait_for(lock, std::min(wait, kReaderCheck), [&] {
-        return stopping_ || readers_wanted_ == 0 || thread_nudged_ || !pending_.empty();
-      });
-      continue;
-    }
-    reader_ = Reader::kThread;
     lock.unlock();
     Dispatch();
     // Only this thread replaces channel_, so it reads it without channel_mu_.
     absl::StatusOr<std::optional<transport::CanFrame>> got = channel_->Receive(wait);
     lock.lock();
-    reader_ = Reader::kNone;
-    if (readers_wanted_ > 0) caller_cv_.notify_all();  // a caller waits for the channel
     if (stopping_) break;
     if (!got.ok()) {
       ++counters_.receive_errors;

@@ -184,10 +184,8 @@ class CanopenMaster {
   // --- NMT (CiA 301 §7.2.8.3.1). node 0 = all nodes.
   absl::Status SendNmt(NmtCommand command, uint8_t node);
 
-  // --- SDO client (blocking; not on the receive thread). While it waits, the caller reads the
-  // channel itself and handles what arrives, in turn with the receive thread and other callers
-  // (decision 1321); observers are still called on the receive thread. `deadline` bounds the whole
-  // call including the wait behind other transfers of the node; each frame exchange is bounded by
+  // --- SDO client (blocking; not on the receive thread). `deadline` bounds the whole call
+  // including the wait behind other transfers of the node; each frame exchange is bounded by
   // options.sdo_timeout. Errors name node and index:sub; server aborts carry the code
   // (AbortCodeOf) and its name, time-outs are DeadlineExceeded after abort 0504 0000h was sent.
   absl::StatusOr<std::vector<uint8_t>> Upload(uint8_t node, uint16_t index, uint8_t sub,
@@ -280,8 +278,9 @@ class CanopenMaster {
     bool started = false;
     absl::StatusOr<std::vector<uint8_t>> result = std::vector<uint8_t>();
     // 0 until `result` is final (stored with release after it). The caller waits on this word
-    // alone, not on a condition variable bound to mu_: the completing thread holds mu_, and a
-    // woken waiter would block on it at once and need a second wake-up (decision 1321).
+    // alone, not on a condition variable bound to mu_: the completing receive thread holds mu_,
+    // and a waiter woken through the condition variable would block on mu_ at once and need a
+    // second wake-up (decision 1321).
     std::atomic<uint32_t> done{0};
   };
   struct Heartbeat {
@@ -327,10 +326,6 @@ class CanopenMaster {
   // SDO plumbing (master_sdo.cpp).
   absl::StatusOr<std::vector<uint8_t>> Transfer(uint8_t node, SdoClientTransfer transfer,
                                                 TimePoint deadline);
-  // With mu_ held (via `lock`): the caller reads the channel itself until `r` is done, the bus
-  // fails or the master stops, taking turns with the receive thread and other callers
-  // (decision 1321).
-  void ReadUntilDoneLocked(std::unique_lock<std::mutex>& lock, uint8_t node, SdoRequest& r);
   void ApplySdoStepLocked(Node& n, SdoStep step, TimePoint now);
   // Expires queued and active transfers; returns the node's next SDO deadline (or `next`).
   TimePoint ServiceSdoLocked(Node& n, TimePoint now, TimePoint next);
@@ -364,10 +359,7 @@ class CanopenMaster {
   absl::Status SendFrame(const transport::CanFrame& frame);
   // Logs `frame` for the traced node it carries (SetNodeTrace); `node` 0: from the identifier.
   void TraceFrame(const transport::CanFrame& frame, const char* dir, uint8_t node = 0);
-  // Makes whoever is inside channel_->Receive return (the receive thread or a reading caller).
   void WakeReceiver();
-  // With mu_ held: the receive thread re-reads the clock, wherever it waits (decision 1321).
-  void NudgeLocked();
   bool OnReceiveThread() const { return std::this_thread::get_id() == receive_thread_id_.load(); }
   bool HasObserverLocked(uint8_t node) const;
 
@@ -394,14 +386,6 @@ class CanopenMaster {
   std::map<std::pair<uint8_t, uint16_t>, uint16_t> tpdo_cob_;     // configured; 0 = invalid
   std::map<uint16_t, std::pair<uint8_t, uint16_t>> tpdo_by_cob_;  // configured and valid
   std::vector<Notification> pending_;  // filled under mu_, delivered by Dispatch
-  // Who is inside channel_->Receive (decision 1321): the receive thread, an SDO caller waiting
-  // for its answer, or nobody (between two reads).
-  enum class Reader : uint8_t { kNone, kThread, kCaller };
-  Reader reader_ = Reader::kNone;
-  int readers_wanted_ = 0;             // SDO callers that want to read for their answer
-  bool thread_nudged_ = false;         // NudgeLocked since the receive thread last looked
-  std::condition_variable thread_cv_;  // the receive thread, while callers read
-  std::condition_variable caller_cv_;  // callers, for the channel or their completion
   MasterCounters counters_;            // except frames_out / send_errors
 
   std::atomic<bool> tracing_{false};

@@ -122,8 +122,8 @@ absl::Status CanopenMaster::SetHeartbeatConsumer(uint8_t node, Duration consumer
     if (consumer_time == Duration::zero() && hb.state == Heartbeat::State::kLost) {
       hb.state = Heartbeat::State::kWaiting;
     }
-    NudgeLocked();  // the next expiry may be earlier than the thread's current wait
   }
+  WakeReceiver();  // the next expiry may be earlier than the thread's current wait
   return absl::OkStatus();
 }
 

@@ -2,9 +2,6 @@
 // (CiA 301 v4.2.0 §7.2.4.1: one SDO channel per client/server pair; decision 1112), per-exchange
 // time-outs with abort 0504 0000h (decision 1103), typed helpers and PDO configuration.
 #include <algorithm>
-#include <mutex>
-#include <optional>
-#include <shared_mutex>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -19,10 +16,6 @@ namespace drivegw::canopen {
 namespace {
 
 int64_t Ms(Duration d) { return std::chrono::duration_cast<std::chrono::milliseconds>(d).count(); }
-
-// Longest single read of a caller waiting for its answer: it re-checks its deadlines at least this
-// often (the receive thread's kIdleWait).
-constexpr Duration kCallerReadWait = std::chrono::milliseconds(100);
 
 std::string Describe(const SdoClientTransfer& t, uint8_t node) {
   return absl::StrFormat("sdo %s 0x%04X:%02X node %d",
@@ -76,68 +69,14 @@ absl::StatusOr<std::vector<uint8_t>> CanopenMaster::Transfer(uint8_t node,
         request->started ? std::min(request->frame_deadline, deadline) : deadline;
     if (next < planned_wake_) {
       planned_wake_ = next;
-      NudgeLocked();
+      WakeReceiver();  // lock order mu_ → channel_mu_
     }
   }
-  ReadUntilDoneLocked(lock, node, *request);
   lock.unlock();
-  // Completion (CompleteSdoLocked, ServiceSdoLocked, Stop) stores `done` after the result and
-  // removes the request from the queue first: nothing touches it afterwards (decision 1321).
+  // Completion (CompleteSdoLocked, ServiceSdoLocked, Stop) removes the request from the queue and
+  // then stores `done` after the result: nothing touches it afterwards (decision 1321).
   request->done.wait(0, std::memory_order_acquire);
   return std::move(request->result);
-}
-
-void CanopenMaster::ReadUntilDoneLocked(std::unique_lock<std::mutex>& lock, uint8_t node,
-                                        SdoRequest& r) {
-  // Decision 1321: the caller reads its answer itself instead of waiting for the receive thread
-  // to hand it over. That hand-off (a futex wake-up of a sleeping thread, 10-50 us on this VM)
-  // sat between every response and the next request; reading here puts the caller's wake-up
-  // inside the frame's time on the wire, as for the DeviceNet and Trinamic sessions. Frames of
-  // other kinds are handled exactly as on the receive thread (same HandleFrameLocked, in channel
-  // order: one reader at a time); their notifications still reach observers on that thread.
-  auto done = [&r] { return r.done.load(std::memory_order_relaxed) != 0; };
-  auto may_read = [&] { return !done() && !stopping_ && fault_ == BusFault::kNone; };
-  if (!may_read()) return;
-  ++readers_wanted_;
-  if (reader_ == Reader::kThread) WakeReceiver();  // it returns from Receive and yields
-  while (may_read()) {
-    if (reader_ != Reader::kNone) {
-      caller_cv_.wait(lock);  // another reader; woken when it is done or `r` completed
-      continue;
-    }
-    const TimePoint now = clock_.Now();
-    // This node's time-outs are checked here too: the receive thread may be asleep until its
-    // own next deadline (a ManualClock moves without it).
-    const TimePoint next = ServiceSdoLocked(nodes_[node], now, now + kCallerReadWait);
-    if (!may_read()) break;
-    reader_ = Reader::kCaller;
-    lock.unlock();
-    absl::StatusOr<std::optional<transport::CanFrame>> got;
-    {
-      std::shared_lock channel(channel_mu_);
-      got = channel_->Receive(std::clamp(next - now, Duration::zero(), kCallerReadWait));
-    }
-    lock.lock();
-    reader_ = Reader::kNone;
-    if (!got.ok()) {
-      // The receive thread reads again, meets a broken channel itself and handles it (back-off,
-      // reopen, decision 1117); the caller goes back to waiting.
-      ++counters_.receive_errors;
-      break;
-    }
-    if (got->has_value()) {
-      ++counters_.frames_in;
-      HandleFrameLocked(**got, clock_.Now());
-      if (!pending_.empty()) thread_cv_.notify_one();  // observers run on the receive thread
-    }
-  }
-  --readers_wanted_;
-  // The next waiting caller (if any) reads on at once. The receive thread is not woken: a wake-up
-  // of a sleeping thread costs the waker 5-15 us on this VM (an inter-processor interrupt), and it
-  // would sit between this answer and the caller's next request. The receive thread looks every
-  // kReaderCheck whether the channel is free (decision 1321); back-to-back transfers of this or
-  // another caller never leave it free that long.
-  if (readers_wanted_ > 0) caller_cv_.notify_all();
 }
 
 void CanopenMaster::PumpSdoLocked(Node& n, TimePoint now) {
@@ -177,8 +116,7 @@ void CanopenMaster::CompleteSdoLocked(Node& n, absl::StatusOr<std::vector<uint8_
   }
   r->result = std::move(result);
   r->done.store(1, std::memory_order_release);
-  r->done.notify_one();     // one caller per request
-  caller_cv_.notify_all();  // a caller waiting for its turn to read re-checks
+  r->done.notify_one();  // one caller per request
 }
 
 void CanopenMaster::ApplySdoStepLocked(Node& n, SdoStep step, TimePoint now) {
@@ -249,7 +187,6 @@ TimePoint CanopenMaster::ServiceSdoLocked(Node& n, TimePoint now, TimePoint next
     it = n.sdo.erase(it);
     keep->done.store(1, std::memory_order_release);
     keep->done.notify_one();
-    caller_cv_.notify_all();
   }
   if (n.sdo.empty() || !n.sdo.front()->started) return next;
   SdoRequest& r = *n.sdo.front();
