@@ -269,14 +269,19 @@ class CanopenMaster {
   struct SdoRequest {
     explicit SdoRequest(SdoClientTransfer t) : transfer(std::move(t)) {}
     SdoClientTransfer transfer;
-    std::string context;         // "sdo upload 0x6041:00 node 5"
+    uint8_t node = 0;
+    // "sdo upload 0x6041:00 node 5", for errors.
+    std::string context() const;
     TimePoint deadline{};        // the caller's
     TimePoint frame_deadline{};  // the current exchange's
     TimePoint started_at{};      // first frame sent
     bool started = false;
-    bool done = false;
     absl::StatusOr<std::vector<uint8_t>> result = std::vector<uint8_t>();
-    std::condition_variable cv;
+    // 0 until `result` is final (stored with release after it). The caller waits on this word
+    // alone, not on a condition variable bound to mu_: the completing receive thread holds mu_,
+    // and a waiter woken through the condition variable would block on mu_ at once and need a
+    // second wake-up (decision 1321).
+    std::atomic<uint32_t> done{0};
   };
   struct Heartbeat {
     Duration consumer_time{};  // zero: not supervised
