@@ -35,17 +35,25 @@ void WatchStream::Run(const Step& step) noexcept {
   }
 }
 
+void WatchStream::PollLocked() {
+  if (cancelled_ || source_->Ended()) return;
+  polled_.clear();
+  source_->Next(polled_);
+  for (auto& s : polled_) pending_.push_back(std::move(s));
+}
+
 bool WatchStream::Tick() noexcept {
   Step step;
   {
     std::lock_guard lock(mu_);
     if (finished_) return false;
-    // A write still in flight or snapshots of the last poll still queued: this consumer is slow;
-    // skip it this tick, the next poll sends the latest snapshot instead of a backlog.
-    if (!writing_ && pending_.empty() && !cancelled_ && !source_->Ended()) {
-      polled_.clear();
-      source_->Next(polled_);
-      for (auto& s : polled_) pending_.push_back(std::move(s));
+    if (writing_ || !pending_.empty()) {
+      // The consumer is still busy with the last poll: this tick is owed and made up by one poll
+      // when the write completes (the latest snapshot then, never a backlog), as the producer
+      // thread per stream did when a write outlasted its period.
+      missed_ = true;
+    } else {
+      PollLocked();
     }
     step = NextLocked();
   }
@@ -60,6 +68,10 @@ void WatchStream::WriteDone(bool ok) noexcept {
     writing_ = false;
     current_.reset();
     if (!ok) cancelled_ = true;
+    if (missed_ && pending_.empty()) {
+      missed_ = false;
+      PollLocked();
+    }
     step = NextLocked();
   }
   Run(step);

@@ -1,7 +1,8 @@
 // One watch stream served by the shared WatchTicker (issue 10, P5; decision 1341): at each tick it
 // asks its source for the changed snapshots and starts a write only when the previous one has
-// completed — a slow consumer is skipped, never queued, and gets the latest snapshot when it is
-// ready again (latest wins, decision 504 item 5). The transport (gRPC reactor, test fake) is the
+// completed — a busy consumer is not polled, never queued; the tick it missed is made up by one
+// poll when its write completes, which yields the latest snapshot (latest wins, decision 504
+// item 5). The transport (gRPC reactor, test fake) is the
 // Output; nothing here blocks.
 #pragma once
 
@@ -61,6 +62,8 @@ class WatchStream final : public WatchTicker::Client {
   };
   // Under mu_: what to do next given the state; marks the write or the finish as started.
   Step NextLocked();
+  // Under mu_: asks the source for the snapshots to send now (unless the stream is ending).
+  void PollLocked();
   static void Run(const Step& step) noexcept;
 
   std::mutex mu_;
@@ -70,6 +73,7 @@ class WatchStream final : public WatchTicker::Client {
   std::deque<SharedDriveStatus> pending_;  // one tick's snapshots still to write (one per drive)
   SharedDriveStatus current_;              // in flight
   bool writing_ = false;
+  bool missed_ = false;  // a tick came while busy: poll once when the write completes
   bool cancelled_ = false;
   bool finished_ = false;
 };

@@ -14,7 +14,9 @@ class WatchReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
                            private WatchStream::Output {
  public:
   WatchReactor(WatchServing& serving, DriveServiceCore::OpenedWatch opened)
-      : serving_(serving), stream_(std::make_shared<WatchStream>(std::move(opened.source), this)) {
+      : serving_(serving),
+        stream_(std::make_shared<WatchStream>(std::move(opened.source),
+                                              static_cast<WatchStream::Output*>(this))) {
     // The first snapshot goes out at once, as it did with a producer thread per stream; from then
     // on the shared tick of the stream's period drives it.
     if (stream_->Tick()) serving_.ticker().Add(opened.period, stream_);
