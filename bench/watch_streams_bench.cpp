@@ -1,9 +1,10 @@
 // P5 (issue 10): N concurrent gRPC WatchDrives streams (drive x1, max_rate_hz 100) on the gateway
 // against the same N streams from a bare callback server-streaming service that sends an empty
 // payload at the same rate (the same serving mechanism: WatchServing's shared ticker, reactor and
-// raw byte writes, decision 1341; a grpc::Server of its own in this process). One client for both: C channels (own connections), one generic
-// callback reactor per stream that counts messages and records their arrival times without parsing
-// them (the first one of each gateway stream is parsed to check it is x1's status).
+// raw byte writes, decision 1341; a grpc::Server of its own in this process). One client for both:
+// C channels (own connections), one generic callback reactor per stream that counts messages and
+// records their arrival times without parsing them (the first one of each gateway stream is parsed
+// to check it is x1's status).
 //
 // WatchDrives sends a drive's snapshot only when it changed, at most max_rate_hz times a second,
 // latest snapshot wins (core WatchDrives; decision 504 item 5). x1 is kept moving for the whole run

@@ -15,8 +15,8 @@ namespace drivegw::server {
 
 // WatchDrives is a raw (ByteBuffer) method: its streams write bytes serialised once per snapshot
 // for all of them (server/grpc/watch_reactor.h, decision 1341); the wire format is unchanged.
-class DriveServiceGrpc final
-    : public v1::DriveService::WithRawCallbackMethod_WatchDrives<v1::DriveService::CallbackService> {
+class DriveServiceGrpc final : public v1::DriveService::WithRawCallbackMethod_WatchDrives<
+                                   v1::DriveService::CallbackService> {
  public:
   // `idempotency` may be null (no idempotent retries, decision 020).
   // Every call is authorised by `auth` (decision 015).

@@ -18,8 +18,7 @@ struct Core {
   Core() {
     x1 = std::make_shared<FakeDrive>(FakeDrive::Config("x1", "linmot"), false);
     x2 = std::make_shared<FakeDrive>(FakeDrive::Config("x2", "linmot"), false);
-    core = std::make_unique<DriveServiceCore>(std::vector<std::shared_ptr<Drive>>{x1, x2},
-                                              nullptr);
+    core = std::make_unique<DriveServiceCore>(std::vector<std::shared_ptr<Drive>>{x1, x2}, nullptr);
   }
   std::shared_ptr<FakeDrive> x1, x2;
   std::unique_ptr<DriveServiceCore> core;

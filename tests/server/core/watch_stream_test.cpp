@@ -296,8 +296,7 @@ TEST(WatchTickerTest, Add_TwoPeriods_EachTicksAtItsOwnRate) {
 TEST(WatchTickerTest, SlowConsumer_DoesNotStallOthers) {
   WatchTicker ticker(1);
   FakeOutput stuck_out, fast_out(/*auto_complete=*/true);
-  auto stuck =
-      std::make_shared<WatchStream>(std::make_unique<EverChangingSource>(), &stuck_out);
+  auto stuck = std::make_shared<WatchStream>(std::make_unique<EverChangingSource>(), &stuck_out);
   auto fast = std::make_shared<WatchStream>(std::make_unique<EverChangingSource>(), &fast_out);
   stuck_out.Attach(stuck.get());
   fast_out.Attach(fast.get());
