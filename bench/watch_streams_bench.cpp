@@ -1,9 +1,10 @@
 // P5 (issue 10): N concurrent gRPC WatchDrives streams (drive x1, max_rate_hz 100) on the gateway
 // against the same N streams from a bare callback server-streaming service that sends an empty
-// payload at the same rate (the same ProducerStream reactor, the same threading, a grpc::Server of
-// its own in this process). One client for both: C channels (own connections), one generic
-// callback reactor per stream that counts messages and records their arrival times without parsing
-// them (the first one of each gateway stream is parsed to check it is x1's status).
+// payload at the same rate (the same serving mechanism: WatchServing's shared ticker, reactor and
+// raw byte writes, decision 1341; a grpc::Server of its own in this process). One client for both:
+// C channels (own connections), one generic callback reactor per stream that counts messages and
+// records their arrival times without parsing them (the first one of each gateway stream is parsed
+// to check it is x1's status).
 //
 // WatchDrives sends a drive's snapshot only when it changed, at most max_rate_hz times a second,
 // latest snapshot wins (core WatchDrives; decision 504 item 5). x1 is kept moving for the whole run
@@ -35,7 +36,7 @@
 #include "drivegw/v1/drive.grpc.pb.h"
 #include "server/core/drive_service.h"
 #include "server/gateway.h"
-#include "server/grpc/producer_stream.h"
+#include "server/grpc/watch_reactor.h"
 
 namespace {
 
@@ -54,25 +55,35 @@ const char* const kMethod = "/drivegw.v1.DriveService/WatchDrives";
 
 // --- baseline: empty payload at 100 Hz through the same reactor --------------------------------
 
-class EmptyWatchService final : public drivegw::v1::DriveService::CallbackService {
-  grpc::ServerWriteReactor<drivegw::v1::DriveStatus>* WatchDrives(
-      grpc::CallbackServerContext*, const drivegw::v1::WatchDrivesRequest* req) override {
-    const double rate = req->max_rate_hz();
-    using Stream = drivegw::server::ProducerStream<drivegw::v1::DriveStatus>;
-    return new Stream([rate](const Stream::Sink& sink, const std::function<bool()>& cancelled) {
-      const auto period =
-          std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
-      const drivegw::v1::DriveStatus empty;
-      auto next = Clock::now();
-      while (!cancelled()) {
-        if (!sink(empty)) break;
-        next += period;
-        if (next < Clock::now()) next = Clock::now();
-        std::this_thread::sleep_until(next);
-      }
-      return absl::OkStatus();
-    });
+// Every tick yields the same shared empty DriveStatus: no drive, no conversion, no change check.
+class EmptySource final : public drivegw::server::WatchSource {
+ public:
+  explicit EmptySource(drivegw::server::SharedDriveStatus empty) : empty_(std::move(empty)) {}
+  void Next(std::vector<drivegw::server::SharedDriveStatus>& out) override {
+    out.push_back(empty_);
   }
+  bool Ended() const noexcept override { return false; }
+
+ private:
+  drivegw::server::SharedDriveStatus empty_;
+};
+
+class EmptyWatchService final : public drivegw::v1::DriveService::WithRawCallbackMethod_WatchDrives<
+                                    drivegw::v1::DriveService::CallbackService> {
+  grpc::ServerWriteReactor<grpc::ByteBuffer>* WatchDrives(grpc::CallbackServerContext*,
+                                                          const grpc::ByteBuffer* raw) override {
+    auto req = drivegw::server::ParseWatchRequest(*raw);
+    if (!req.ok()) return serving_.Start(req.status());
+    const auto period = std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(1.0 / std::max(req->max_rate_hz(), 1.0)));
+    return serving_.Start(drivegw::server::DriveServiceCore::OpenedWatch{
+        std::make_unique<EmptySource>(empty_), period});
+  }
+
+  const drivegw::server::SharedDriveStatus empty_ =
+      std::make_shared<const drivegw::v1::DriveStatus>();
+  // The gateway's serving mechanism: shared ticker, one write in flight, shared wire bytes.
+  drivegw::server::WatchServing serving_;
 };
 
 // --- client --------------------------------------------------------------------------------------
@@ -334,7 +345,7 @@ int main(int argc, char** argv) {
   std::printf("%-40s %11s %8s %8s %10s %9s %7s %9s %6s\n", "measurement", "msgs/s", "of ideal",
               "behind", "worst gap", "min share", "B/msg", "CPU us/m", "cores");
   std::printf("%-40s %11.0f %7.1f%% %8d %8.1fms %8.1f%% %7.0f %9.1f %6.2f\n",
-              "baseline: empty payload, same reactor", base_rate, 100 * base_rate / ideal,
+              "baseline: empty payload, same serving", base_rate, 100 * base_rate / ideal,
               base.behind, base.worst_gap_ms, 100 * base.min_share, base.bytes_per_msg,
               cpu_us(base), cores(base));
   std::printf("%-40s %11.0f %7.1f%% %8d %8.1fms %8.1f%% %7.0f %9.1f %6.2f\n",
@@ -363,7 +374,7 @@ int main(int argc, char** argv) {
                                  {"baseline_cores_used", cores(base)},
                                  {"load_avg", load_after}};
   drivegw::bench::Report({"P5", "watch_streams_ratio", ratio, "ratio", ">=0.8",
-                          "same streams, empty payload, same reactor and threading", detail});
+                          "same streams, empty payload, same shared ticker and reactor", detail});
   drivegw::bench::Report({"P5", "streams_behind", static_cast<double>(gate.behind), "streams", "=0",
                           "< 95 % of 100 Hz x window or a gap > 100 ms", detail});
   return gate.failed + base.failed == 0 ? 0 : 1;

@@ -18,13 +18,6 @@
 #include "storage/audit_log.h"
 
 namespace drivegw::server {
-namespace {
-
-constexpr double kDefaultWatchRateHz = 20;
-constexpr double kMaxWatchRateHz = 1000;
-
-}  // namespace
-
 DriveServiceCore::DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives,
                                    storage::AuditLog* audit, const LeaseManager* leases)
     : drives_(std::move(drives)),
@@ -345,57 +338,6 @@ absl::StatusOr<std::unique_ptr<CyclicSetpointStream>> DriveServiceCore::StartCyc
     if (auto s = (*out)->PushSetpoint(first.setpoint()); !s.ok()) return (*out)->End(s).status();
   }
   return out;
-}
-
-absl::Status DriveServiceCore::WatchDrives(const v1::WatchDrivesRequest& r, const CallContext&,
-                                           const std::function<bool(const v1::DriveStatus&)>& sink,
-                                           const std::function<bool()>& cancelled) {
-  double rate = r.max_rate_hz();
-  if (!(rate >= 0)) return FieldError("max_rate_hz", absl::StrCat(rate, " must not be negative"));
-  if (rate > kMaxWatchRateHz) {
-    return FieldError("max_rate_hz", absl::StrCat(rate, " exceeds ", kMaxWatchRateHz),
-                      absl::StatusCode::kOutOfRange);
-  }
-  if (rate == 0) rate = kDefaultWatchRateHz;
-  std::vector<Drive*> watched;
-  if (r.names().empty()) {
-    for (const auto& d : drives_) watched.push_back(d.get());
-  } else {
-    for (int i = 0; i < r.names_size(); ++i) {
-      auto d = Find(absl::StrCat("names[", i, "]"), r.names(i));
-      if (!d.ok()) return d.status();
-      watched.push_back(*d);
-    }
-  }
-  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-      std::chrono::duration<double>(1.0 / rate));
-  std::vector<std::shared_ptr<const std::string>> last(watched.size());
-  std::vector<uint64_t> last_seq(watched.size(), 0);
-  std::vector<bool> sent_any(watched.size(), false);
-  auto next = std::chrono::steady_clock::now();
-  while (!shutting_down_.load() && !cancelled()) {
-    for (size_t i = 0; i < watched.size(); ++i) {
-      DriveStatus s = watched[i]->GetStatus();
-      if (sent_any[i] && s.sequence == last_seq[i]) continue;
-      last_seq[i] = s.sequence;
-      // Converted once per snapshot for all streams (P5); link counters at most a period old.
-      WatchSnapshots::Snapshot snap = snapshots_->Get(
-          *watched[i], s, [&] { return StatusToProto(*watched[i], s); }, period);
-      if (sent_any[i] && (snap.key == last[i] || *snap.key == *last[i])) continue;
-      last[i] = std::move(snap.key);
-      sent_any[i] = true;
-      if (!sink(*snap.proto)) return absl::OkStatus();
-    }
-    next += period;
-    const auto now = std::chrono::steady_clock::now();
-    if (next < now) next = now;
-    // Sleep in short slices so cancellation and shutdown end the stream promptly.
-    while (!shutting_down_.load() && !cancelled() && std::chrono::steady_clock::now() < next) {
-      std::this_thread::sleep_until(
-          std::min(next, std::chrono::steady_clock::now() + std::chrono::milliseconds(20)));
-    }
-  }
-  return absl::OkStatus();
 }
 
 }  // namespace drivegw::server

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <map>
 #include <memory>
@@ -16,6 +17,7 @@
 #include "server/core/cyclic_stream.h"
 #include "server/core/lease_manager.h"
 #include "server/core/watch_snapshots.h"
+#include "server/core/watch_stream.h"
 
 namespace drivegw::storage {
 class AuditLog;
@@ -66,12 +68,15 @@ class DriveServiceCore {
   absl::StatusOr<std::unique_ptr<CyclicSetpointStream>> StartCyclicSetpoints(
       const v1::CyclicSetpointRequest& first, const CallContext& c);
 
-  // Streams snapshots of the requested drives to `sink` at most max_rate_hz per drive; only
-  // snapshots whose content changed are sent (the first one always). Returns when `sink`
-  // returns false, `cancelled()` turns true, or Shutdown() is called. Blocks the caller.
-  absl::Status WatchDrives(const v1::WatchDrivesRequest& r, const CallContext& c,
-                           const std::function<bool(const v1::DriveStatus&)>& sink,
-                           const std::function<bool()>& cancelled);
+  // WatchDrives, opened (server/core/drive_watch.cpp): checks the request (max_rate_hz, names)
+  // and returns the stream's non-blocking source and period for the shared WatchTicker. The
+  // source yields a drive's snapshot only when its content changed (the first one always), so at
+  // most one per drive and period; it ends with Shutdown().
+  struct OpenedWatch {
+    std::unique_ptr<WatchSource> source;
+    std::chrono::steady_clock::duration period;
+  };
+  absl::StatusOr<OpenedWatch> OpenWatch(const v1::WatchDrivesRequest& r, const CallContext& c);
 
   // Ends every running WatchDrives promptly (server shutdown).
   void Shutdown() { shutting_down_.store(true); }

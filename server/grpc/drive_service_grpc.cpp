@@ -3,7 +3,6 @@
 
 #include "server/grpc/call_auth.h"
 #include "server/grpc/cyclic_reactor.h"
-#include "server/grpc/producer_stream.h"
 #include "server/grpc/status_mapping.h"
 
 namespace drivegw::server {
@@ -34,15 +33,13 @@ grpc::ServerUnaryReactor* DriveServiceGrpc::GetCommand(grpc::CallbackServerConte
   return Inline(auth_, RpcName("GetCommand"), ctx, resp,
                 [&](const CallContext& c) { return core_.GetCommand(*req, c); });
 }
-grpc::ServerWriteReactor<v1::DriveStatus>* DriveServiceGrpc::WatchDrives(
-    grpc::CallbackServerContext* ctx, const v1::WatchDrivesRequest* req) {
+grpc::ServerWriteReactor<grpc::ByteBuffer>* DriveServiceGrpc::WatchDrives(
+    grpc::CallbackServerContext* ctx, const grpc::ByteBuffer* req) {
   absl::StatusOr<CallContext> cc = auth_.Authorize(*ctx, RpcName("WatchDrives"));
-  if (!cc.ok()) return new RefusedWriter<v1::DriveStatus>(cc.status());  // deletes itself
-  return new ProducerStream<v1::DriveStatus>(                            // deletes itself in OnDone
-      [this, r = *req, cc = *std::move(cc)](const ProducerStream<v1::DriveStatus>::Sink& sink,
-                                            const std::function<bool()>& cancelled) {
-        return core_.WatchDrives(r, cc, sink, cancelled);
-      });
+  if (!cc.ok()) return new RefusedWriter<grpc::ByteBuffer>(cc.status());  // deletes itself
+  absl::StatusOr<v1::WatchDrivesRequest> r = ParseWatchRequest(*req);
+  if (!r.ok()) return new RefusedWriter<grpc::ByteBuffer>(r.status());
+  return watch_.Start(core_.OpenWatch(*r, *cc));  // deletes itself in OnDone
 }
 
 grpc::ServerReadReactor<v1::CyclicSetpointRequest>* DriveServiceGrpc::StreamCyclicSetpoints(

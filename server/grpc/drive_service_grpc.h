@@ -8,11 +8,15 @@
 #include "server/core/drive_service.h"
 #include "server/core/idempotency.h"
 #include "server/grpc/call_auth.h"
+#include "server/grpc/watch_reactor.h"
 #include "server/grpc/worker_pool.h"
 
 namespace drivegw::server {
 
-class DriveServiceGrpc final : public v1::DriveService::CallbackService {
+// WatchDrives is a raw (ByteBuffer) method: its streams write bytes serialised once per snapshot
+// for all of them (server/grpc/watch_reactor.h, decision 1341); the wire format is unchanged.
+class DriveServiceGrpc final : public v1::DriveService::WithRawCallbackMethod_WatchDrives<
+                                   v1::DriveService::CallbackService> {
  public:
   // `idempotency` may be null (no idempotent retries, decision 020).
   // Every call is authorised by `auth` (decision 015).
@@ -25,8 +29,8 @@ class DriveServiceGrpc final : public v1::DriveService::CallbackService {
                                        v1::ListDrivesResponse* resp) override;
   grpc::ServerUnaryReactor* GetDrive(grpc::CallbackServerContext* ctx,
                                      const v1::GetDriveRequest* req, v1::Drive* resp) override;
-  grpc::ServerWriteReactor<v1::DriveStatus>* WatchDrives(
-      grpc::CallbackServerContext* ctx, const v1::WatchDrivesRequest* req) override;
+  grpc::ServerWriteReactor<grpc::ByteBuffer>* WatchDrives(grpc::CallbackServerContext* ctx,
+                                                          const grpc::ByteBuffer* req) override;
   grpc::ServerUnaryReactor* Enable(grpc::CallbackServerContext* ctx, const v1::EnableRequest* req,
                                    v1::CommandHandle* resp) override;
   grpc::ServerUnaryReactor* Disable(grpc::CallbackServerContext* ctx, const v1::DisableRequest* req,
@@ -71,6 +75,7 @@ class DriveServiceGrpc final : public v1::DriveService::CallbackService {
   WorkerPool& pool_;
   const CallAuth& auth_;
   IdempotencyCache* idempotency_;
+  WatchServing watch_;  // the shared ticker and wire bytes of every WatchDrives stream
 };
 
 }  // namespace drivegw::server

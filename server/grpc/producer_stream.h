@@ -1,6 +1,7 @@
-// A server stream fed by a producer thread: the body runs the core's loop (watch drives, watch or
-// export audit events) and hands each message to gRPC one write at a time — the producer waits
-// while a write is in flight, so memory per stream is one message; the core coalesces meanwhile.
+// A server stream fed by a producer thread: the body runs the core's loop (watch or export audit
+// events; WatchDrives runs on the shared ticker instead, decision 1341) and hands each message to
+// gRPC one write at a time — the producer waits while a write is in flight, so memory per stream
+// is one message; the core coalesces meanwhile.
 #pragma once
 
 #include <atomic>

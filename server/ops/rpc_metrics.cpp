@@ -81,6 +81,7 @@ class RpcMetricsInterceptor final : public gx::Interceptor {
     } else {
       method_ = std::string(full);
     }
+    raw_ = full == "/drivegw.v1.DriveService/WatchDrives";
   }
 
   void Intercept(gx::InterceptorBatchMethods* m) override {
@@ -88,9 +89,10 @@ class RpcMetricsInterceptor final : public gx::Interceptor {
       ReadTransport(m);
     }
     // Only drivegw's own services are known to carry generated protobuf messages; others (the
-    // health service) receive raw ByteBuffers.
+    // health service) and drivegw's raw methods receive ByteBuffers. WatchDrives is raw
+    // (decision 1341) and its request has no `name` anyway (`names`).
     if (m->QueryInterceptionHookPoint(gx::InterceptionHookPoints::POST_RECV_MESSAGE) &&
-        drive_ == nullptr && absl::StartsWith(service_, "drivegw.")) {
+        drive_ == nullptr && absl::StartsWith(service_, "drivegw.") && !raw_) {
       ReadDrive(static_cast<const google::protobuf::Message*>(m->GetRecvMessage()));
     }
     if (m->QueryInterceptionHookPoint(gx::InterceptionHookPoints::PRE_SEND_STATUS)) {
@@ -138,6 +140,7 @@ class RpcMetricsInterceptor final : public gx::Interceptor {
   const std::chrono::steady_clock::time_point start_;
   std::string service_;
   std::string method_;
+  bool raw_ = false;  // a ByteBuffer method: its messages are no protobuf Message
   std::string transport_ = "grpc";
   const std::pair<const std::string, std::string>* drive_ = nullptr;
   bool recorded_ = false;

@@ -142,10 +142,12 @@ class FakeDrive final : public Drive {
     if (!cyclic_record_) return std::nullopt;
     return *cyclic_record_;
   }
-  // The unified state GetStatus reports (default OFFLINE).
+  // The unified state GetStatus reports (default OFFLINE); each call publishes a new snapshot
+  // (sequence + 1), as a drive's status cycle does.
   void SetState(DriveState state) {
     std::lock_guard lock(mu_);
     state_ = state;
+    ++sequence_;
   }
 
   const DriveConfig& config() const override { return config_; }
@@ -221,6 +223,7 @@ class FakeDrive final : public Drive {
     std::lock_guard lock(mu_);
     DriveStatus s;
     s.state = state_;
+    s.sequence = sequence_;
     return s;
   }
   std::optional<CommandInfo> GetCommand(uint64_t) const override { return std::nullopt; }
@@ -247,6 +250,7 @@ class FakeDrive final : public Drive {
   std::optional<uint32_t> parameter_id_;
   int calls_ = 0;
   DriveState state_ = DriveState::kOffline;
+  uint64_t sequence_ = 0;
   bool cyclic_ = false;
   FakeCyclicStream::Options cyclic_options_;
   // Shared with the streams (their Push may run on a gRPC thread while the test reads).

@@ -1,0 +1,90 @@
+// DriveServiceCore::OpenWatch (issue 10, P5; decision 1341): the request checks WatchDrives always
+// made, and a source that yields a drive's snapshot only when its content changed.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <memory>
+#include <vector>
+
+#include "server/core/drive_service.h"
+#include "tests/server/core/fake_drive.h"
+
+namespace drivegw::server {
+namespace {
+
+using test_support::FakeDrive;
+
+struct Core {
+  Core() {
+    x1 = std::make_shared<FakeDrive>(FakeDrive::Config("x1", "linmot"), false);
+    x2 = std::make_shared<FakeDrive>(FakeDrive::Config("x2", "linmot"), false);
+    core = std::make_unique<DriveServiceCore>(std::vector<std::shared_ptr<Drive>>{x1, x2}, nullptr);
+  }
+  std::shared_ptr<FakeDrive> x1, x2;
+  std::unique_ptr<DriveServiceCore> core;
+};
+
+std::vector<std::string> Names(WatchSource& source) {
+  std::vector<SharedDriveStatus> out;
+  source.Next(out);
+  std::vector<std::string> names;
+  for (const auto& s : out) names.push_back(s->name());
+  return names;
+}
+
+TEST(OpenWatchTest, OpenWatch_BadRate_IsRefused) {
+  Core c;
+  v1::WatchDrivesRequest r;
+  r.set_max_rate_hz(-1);
+  EXPECT_EQ(c.core->OpenWatch(r, {}).status().code(), absl::StatusCode::kInvalidArgument);
+  r.set_max_rate_hz(1001);
+  EXPECT_EQ(c.core->OpenWatch(r, {}).status().code(), absl::StatusCode::kOutOfRange);
+}
+
+TEST(OpenWatchTest, OpenWatch_UnknownDrive_IsNotFound) {
+  Core c;
+  v1::WatchDrivesRequest r;
+  r.add_names("drives/x9");
+  auto w = c.core->OpenWatch(r, {});
+  EXPECT_EQ(w.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_NE(w.status().message().find("names[0]"), std::string::npos) << w.status();
+}
+
+TEST(OpenWatchTest, OpenWatch_Rate_SetsThePeriod) {
+  Core c;
+  v1::WatchDrivesRequest r;
+  r.set_max_rate_hz(100);
+  auto w = c.core->OpenWatch(r, {});
+  ASSERT_TRUE(w.ok()) << w.status();
+  EXPECT_EQ(w->period, std::chrono::milliseconds(10));
+  r.set_max_rate_hz(0);  // default 20 Hz
+  EXPECT_EQ(c.core->OpenWatch(r, {})->period, std::chrono::milliseconds(50));
+}
+
+TEST(OpenWatchTest, Next_ChangedSnapshotsOnly) {
+  Core c;
+  v1::WatchDrivesRequest r;  // no names: every drive
+  auto w = c.core->OpenWatch(r, {});
+  ASSERT_TRUE(w.ok()) << w.status();
+  EXPECT_EQ(Names(*w->source), (std::vector<std::string>{"drives/x1", "drives/x2"}))
+      << "the first snapshot of every drive";
+  EXPECT_TRUE(Names(*w->source).empty()) << "nothing published";
+  c.x2->SetState(DriveState::kEnabled);
+  EXPECT_EQ(Names(*w->source), (std::vector<std::string>{"drives/x2"}));
+  c.x2->SetState(DriveState::kEnabled);  // a new snapshot with the same content
+  EXPECT_TRUE(Names(*w->source).empty());
+}
+
+TEST(OpenWatchTest, Shutdown_EndsOpenSourcesAndRefusesNewOnes) {
+  Core c;
+  v1::WatchDrivesRequest r;
+  auto w = c.core->OpenWatch(r, {});
+  ASSERT_TRUE(w.ok());
+  EXPECT_FALSE(w->source->Ended());
+  c.core->Shutdown();
+  EXPECT_TRUE(w->source->Ended());
+  EXPECT_EQ(c.core->OpenWatch(r, {}).status().code(), absl::StatusCode::kUnavailable);
+}
+
+}  // namespace
+}  // namespace drivegw::server
