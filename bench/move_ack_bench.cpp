@@ -25,6 +25,7 @@
 #include "bench/report.h"
 #include "drivegw/v1/drive.grpc.pb.h"
 #include "server/gateway.h"
+#include "server/grpc/worker_pool.h"
 #include "sim/linmot/server.h"
 
 namespace {
@@ -269,6 +270,38 @@ std::vector<double> MeasureCoreMoveAck(drivegw::server::DriveServiceCore& core, 
   return us;
 }
 
+// The asynchronous core path the gRPC MoveAbsolute now takes (decision 1301), without gRPC:
+// MoveAbsoluteAsync from the bench thread (which sends the telegram when the line is free), the
+// reply evaluated on the session's I/O thread, the audit append and the completion on a pool
+// thread. Its excess over the bare UDP round trip is the drive, core and audit work plus the
+// hand-off to the pool.
+std::vector<double> MeasureCoreAsyncMoveAck(drivegw::server::DriveServiceCore& core,
+                                            drivegw::server::WorkerPool& pool, int n) {
+  std::vector<double> us;
+  drivegw::server::CallContext cc;
+  for (int i = 0; i < n + 50; ++i) {
+    drivegw::v1::MoveAbsoluteRequest req;
+    req.set_name("drives/x1");
+    req.set_position_mm(i % 2 == 0 ? 40 : 60);
+    req.set_velocity_mm_s(1000);
+    req.set_acceleration_mm_s2(10000);
+    std::promise<absl::Status> done;
+    const auto t0 = Clock::now();
+    core.MoveAbsoluteAsync(req, cc, pool, [&](absl::StatusOr<drivegw::v1::CommandHandle> h) {
+      done.set_value(h.status());
+    });
+    const absl::Status s = done.get_future().get();
+    const auto t1 = Clock::now();
+    if (!s.ok()) {
+      ++g_errors;
+      std::fprintf(stderr, "core async move %d failed: %s\n", i, std::string(s.message()).c_str());
+      continue;
+    }
+    if (i >= 50) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+  }
+  return us;
+}
+
 // The floor of a durable audit record: one INSERT of an audit-sized row in its own IMMEDIATE
 // transaction on a prepared statement, in WAL mode with synchronous=NORMAL as storage/db.cpp opens
 // the gateway's database (no hash chain, no retention, no JSON). What an accepted command cannot
@@ -348,7 +381,8 @@ int main(int argc, char** argv) {
   drivegw::server::DriveServiceCore unaudited((*gw)->core().drives(), nullptr);
   const std::string load_before = LoadAverage();
   // Interleave the measurements in rounds so machine noise hits all of them alike.
-  std::vector<double> echo, udp, move, core, bare_core, get, insert, noop;
+  std::vector<double> echo, udp, move, core, bare_core, get, insert, noop, core_async;
+  drivegw::server::WorkerPool bench_pool(2);  // the gateway's own pool size is not exported
   const std::string insert_db = std::string(tmpl) + "/bare_insert.db";
   const int rounds = 4;
   auto append = [](std::vector<double>& to, const std::vector<double>& from) {
@@ -363,10 +397,12 @@ int main(int argc, char** argv) {
     append(insert, MeasureBareInsert(insert_db, n / rounds));
     append(core, MeasureCoreMoveAck((*gw)->core(), n / rounds));
     append(bare_core, MeasureCoreMoveAck(unaudited, n / rounds));
+    append(core_async, MeasureCoreAsyncMoveAck((*gw)->core(), bench_pool, n / rounds));
   }
+  bench_pool.Shutdown();
   const Stats se = Summarize(echo), su = Summarize(udp), sm = Summarize(move), sc = Summarize(core),
               sb = Summarize(bare_core), sg = Summarize(get), si = Summarize(insert),
-              sn = Summarize(noop);
+              sn = Summarize(noop), sa = Summarize(core_async);
   std::printf("%-38s %10s %10s\n", "measurement (n per row)", "p50 us", "p99 us");
   std::printf("%-38s %10.1f %10.1f\n", "baseline: bare gRPC unary echo", se.p50_us, se.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "baseline: bare LinUDP round trip", su.p50_us, su.p99_us);
@@ -379,6 +415,8 @@ int main(int argc, char** argv) {
   std::printf("%-38s %10.1f %10.1f\n", "  of which without gRPC (core direct)", sc.p50_us,
               sc.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "  core direct without audit append", sb.p50_us, sb.p99_us);
+  std::printf("%-38s %10.1f %10.1f\n", "  core async (pool completion, audit)", sa.p50_us,
+              sa.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "bare SQLite INSERT+COMMIT (WAL, NORMAL)", si.p50_us,
               si.p99_us);
   // The floor: both baselines plus the durable record the gateway must write before replying.
@@ -386,8 +424,8 @@ int main(int argc, char** argv) {
   std::printf("floor ratio p50 (echo + round trip + bare insert) / baseline: %.2f\n", floor_p50);
   const double ratio_p50 = sm.p50_us / (se.p50_us + su.p50_us);
   const double ratio_p99 = sm.p99_us / (se.p99_us + su.p99_us);
-  const size_t attempted =
-      move.size() + core.size() + bare_core.size() + static_cast<size_t>(g_errors);
+  const size_t attempted = move.size() + core.size() + bare_core.size() + core_async.size() +
+                           static_cast<size_t>(g_errors);
   std::printf("ratio p50 %.2f  p99 %.2f  (target <= 1.3), n=%zu\n", ratio_p50, ratio_p99,
               move.size());
   std::printf("failed moves: %d of %zu\n", g_errors, attempted);
@@ -403,6 +441,8 @@ int main(int argc, char** argv) {
                                  {"core_p99_us", sc.p99_us},
                                  {"core_no_audit_p50_us", sb.p50_us},
                                  {"core_no_audit_p99_us", sb.p99_us},
+                                 {"core_async_p50_us", sa.p50_us},
+                                 {"core_async_p99_us", sa.p99_us},
                                  {"get_command_p50_us", sg.p50_us},
                                  {"get_command_p99_us", sg.p99_us},
                                  {"offload_noop_p50_us", sn.p50_us},
