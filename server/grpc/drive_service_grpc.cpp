@@ -3,6 +3,7 @@
 
 #include "server/grpc/call_auth.h"
 #include "server/grpc/cyclic_reactor.h"
+#include "server/grpc/inline_completion.h"
 #include "server/grpc/producer_stream.h"
 #include "server/grpc/status_mapping.h"
 
@@ -70,23 +71,27 @@ grpc::ServerUnaryReactor* DriveServiceGrpc::MoveAbsolute(grpc::CallbackServerCon
     });
   }
   auto* reactor = ctx->DefaultReactor();
-  // `req` and `resp` stay valid until Finish; the completion runs once, on a pool thread.
-  auto start = [this, reactor, req, resp](const CallCredentials& credentials) {
+  // `req` and `resp` stay valid until Finish; the completion runs once, on `executor`: inline on
+  // this thread when the drive answers within InlineCompletion::kMaxWait (decision 1302), else on
+  // a pool thread. The completion keeps the executor alive until the drive posted it.
+  auto start = [this, reactor, req, resp](const CallCredentials& credentials, bool may_wait) {
     absl::StatusOr<CallContext> cc = auth_.Check(credentials);
     if (!cc.ok()) {
       reactor->Finish(ToGrpcStatus(cc.status()));
       return;
     }
-    core_.MoveAbsoluteAsync(*req, *cc, pool_,
-                            [reactor, resp](absl::StatusOr<v1::CommandHandle> handle) {
+    auto executor = std::make_shared<InlineCompletion>(pool_);
+    core_.MoveAbsoluteAsync(*req, *cc, *executor,
+                            [reactor, resp, executor](absl::StatusOr<v1::CommandHandle> handle) {
                               if (handle.ok()) *resp = *std::move(handle);
                               reactor->Finish(ToGrpcStatus(handle.status()));
                             });
+    if (may_wait) executor->WaitAndRun();
   };
   if (!credentials.authorization.empty()) {
-    pool_.Post([start, credentials = std::move(credentials)] { start(credentials); });
+    pool_.Post([start, credentials = std::move(credentials)] { start(credentials, false); });
   } else {
-    start(credentials);
+    start(credentials, true);
   }
   return reactor;
 }

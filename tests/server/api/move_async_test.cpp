@@ -19,6 +19,7 @@
 #include "server/core/idempotency.h"
 #include "server/grpc/call_auth.h"
 #include "server/grpc/drive_service_grpc.h"
+#include "server/grpc/inline_completion.h"
 #include "server/grpc/worker_pool.h"
 #include "storage/audit_log.h"
 #include "storage/db.h"
@@ -361,6 +362,42 @@ TEST_F(MoveAsyncTest, Grpc_IdempotencyKey_KeepsTheBlockingPathAndRunsOnce) {
   EXPECT_EQ(drive_->blocking_moves(), 1);
   EXPECT_EQ(drive_->held_count(), 0u);
   EXPECT_EQ(MoveEntries().size(), 1u);
+}
+
+// Records the thread every task it is given runs on (runs them at once, on the poster's thread).
+class RecordingExecutor final : public Executor {
+ public:
+  void Post(std::function<void()> task) override {
+    ++posted;
+    task();
+  }
+  int posted = 0;
+};
+
+TEST(InlineCompletion, PostedWhileWaiting_RunsOnTheWaitingThread) {
+  RecordingExecutor fallback;
+  InlineCompletion inline_completion(fallback);
+  std::thread::id ran_on;
+  std::thread poster([&] {
+    while (!inline_completion.waiting()) std::this_thread::yield();
+    inline_completion.Post([&] { ran_on = std::this_thread::get_id(); });
+  });
+  inline_completion.WaitAndRun(std::chrono::duration_cast<std::chrono::microseconds>(kWait));
+  poster.join();
+  EXPECT_EQ(ran_on, std::this_thread::get_id());
+  EXPECT_EQ(fallback.posted, 0);
+}
+
+TEST(InlineCompletion, PostedBeforeTheWaitOrAfterIt_GoesToTheFallback) {
+  RecordingExecutor fallback;
+  InlineCompletion inline_completion(fallback);
+  int ran = 0;
+  inline_completion.Post([&] { ++ran; });  // a family's blocking fallback, from inside MoveAsync
+  EXPECT_EQ(fallback.posted, 1);
+  inline_completion.WaitAndRun(std::chrono::microseconds(200));  // nothing comes: times out
+  inline_completion.Post([&] { ++ran; });                        // the late completion
+  EXPECT_EQ(fallback.posted, 2);
+  EXPECT_EQ(ran, 2);
 }
 
 }  // namespace
