@@ -2,8 +2,9 @@
 // drive -> count echo), against baselines measured in the same run: a bare gRPC unary echo and
 // a bare LinUDP round trip to the same kind of simulated drive. Prints p50/p99 and the ratio
 // gateway / (gRPC echo + UDP round trip); target ≤ 1.3 (issue 10 P1, docs/performance.md).
-// Also splits the gateway's time: the core without gRPC, and the core without its audit append,
-// so that the table shows where the microseconds beyond the baselines go.
+// Also splits the gateway's time: at the command's creation, the core without gRPC (blocking and,
+// decision 1301, asynchronous), and the core without its audit append, so that the table shows
+// where the microseconds beyond the baselines go.
 #include <grpcpp/generic/async_generic_service.h>
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
@@ -34,6 +35,9 @@ using Clock = std::chrono::steady_clock;
 using drivegw::server::Gateway;
 
 int g_errors = 0;  // failed moves (time-outs), reported with the results
+// The gateway row split at the handle's create_time (the drive's StartCommand; both clocks are
+// this process's system clock): call sent -> command created, command created -> reply received.
+std::vector<double> g_to_created, g_from_created;
 
 struct Stats {
   double p50_us = 0, p99_us = 0;
@@ -160,16 +164,25 @@ std::vector<double> MeasureMoveAck(Gateway& gw, int n) {
     req.set_acceleration_mm_s2(10000);
     drivegw::v1::CommandHandle h;
     grpc::ClientContext ctx;
+    const auto w0 = std::chrono::system_clock::now();
     const auto t0 = Clock::now();
     grpc::Status s = stub->MoveAbsolute(&ctx, req, &h);
     const auto t1 = Clock::now();
+    const auto w1 = std::chrono::system_clock::now();
     if (!s.ok()) {
       // A loaded machine can miss the 100 ms acceptance time-out (D-11); count, do not die.
       ++g_errors;
       std::fprintf(stderr, "move %d failed: %s\n", i, s.error_message().c_str());
       continue;
     }
-    if (i >= 50) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    if (i < 50) continue;
+    us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    const auto created = std::chrono::system_clock::time_point(
+        std::chrono::seconds(h.create_time().seconds()) +
+        std::chrono::duration_cast<std::chrono::system_clock::duration>(
+            std::chrono::nanoseconds(h.create_time().nanos())));
+    g_to_created.push_back(std::chrono::duration<double, std::micro>(created - w0).count());
+    g_from_created.push_back(std::chrono::duration<double, std::micro>(w1 - created).count());
   }
   return us;
 }
@@ -411,6 +424,10 @@ int main(int argc, char** argv) {
   std::printf("%-38s %10.1f %10.1f\n", "baseline sum (echo + round trip)", se.p50_us + su.p50_us,
               se.p99_us + su.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "MoveAbsolute acknowledged (gateway)", sm.p50_us, sm.p99_us);
+  const Stats s_to = Summarize(g_to_created), s_from = Summarize(g_from_created);
+  std::printf("%-38s %10.1f %10.1f\n", "  call sent -> command created", s_to.p50_us, s_to.p99_us);
+  std::printf("%-38s %10.1f %10.1f\n", "  command created -> reply received", s_from.p50_us,
+              s_from.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "GetCommand on the gateway (inline)", sg.p50_us, sg.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "NotFound via the worker pool (offload)", sn.p50_us,
               sn.p99_us);
@@ -445,6 +462,10 @@ int main(int argc, char** argv) {
                                  {"core_no_audit_p99_us", sb.p99_us},
                                  {"core_async_no_audit_p50_us", sa.p50_us},
                                  {"core_async_no_audit_p99_us", sa.p99_us},
+                                 {"to_created_p50_us", s_to.p50_us},
+                                 {"to_created_p99_us", s_to.p99_us},
+                                 {"from_created_p50_us", s_from.p50_us},
+                                 {"from_created_p99_us", s_from.p99_us},
                                  {"get_command_p50_us", sg.p50_us},
                                  {"get_command_p99_us", sg.p99_us},
                                  {"offload_noop_p50_us", sn.p50_us},

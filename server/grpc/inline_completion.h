@@ -1,13 +1,15 @@
-// The executor a unary call hands the Drive seam (decision 1302): a completion posted while the
-// call's gRPC thread still waits for it — at most a short, fixed budget — runs on that thread,
-// so the reply is finished where gRPC can write it at once; anything posted before the wait began
-// or after it ended goes to the worker pool, as every completion did before.
+// The executor a unary call hands the Drive seam (decision 1302): a completion posted by another
+// thread (the drive's I/O thread) before the call's gRPC thread stopped waiting for it — at most
+// a short, fixed budget — runs on that gRPC thread, so the reply is finished where gRPC writes it
+// at once. Tasks the gRPC thread posts itself (a family's blocking fallback, posted from inside
+// MoveAsync) and anything posted after the wait ended go to the worker pool.
 #pragma once
 
 #include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <mutex>
+#include <thread>
 
 #include "adapters/core/executor.h"
 
@@ -20,14 +22,15 @@ class InlineCompletion final : public Executor {
   // holding one for longer than a few calls' worth of work (decision 1302).
   static constexpr std::chrono::microseconds kMaxWait{1000};
 
-  explicit InlineCompletion(Executor& fallback) : fallback_(fallback) {}
+  // The constructing thread is the owner: the one that calls WaitAndRun.
+  explicit InlineCompletion(Executor& fallback)
+      : fallback_(fallback), owner_(std::this_thread::get_id()) {}
 
-  // While WaitAndRun waits: hands `task` to it. Otherwise (before the wait, e.g. a family's
-  // blocking fallback posted from inside MoveAsync, or after it): the fallback executor.
   void Post(std::function<void()> task) override {
-    {
+    // The owner's own tasks may block (Drive::MoveAsync's default runs Move): never kept for it.
+    if (std::this_thread::get_id() != owner_) {
       std::lock_guard lock(mu_);
-      if (waiting_ && !task_) {
+      if (open_ && !task_) {
         task_ = std::move(task);
         cv_.notify_one();
         return;
@@ -36,21 +39,15 @@ class InlineCompletion final : public Executor {
     fallback_.Post(std::move(task));
   }
 
-  // True while WaitAndRun waits (tests hand a task over only then).
-  bool waiting() const {
-    std::lock_guard lock(mu_);
-    return waiting_;
-  }
-
-  // Waits up to `budget` for a task and runs it on the calling thread; afterwards every Post
-  // goes to the fallback. Call once, after the work that will post was started.
+  // Waits up to `budget` for a task posted by another thread (or takes one posted already) and
+  // runs it on the calling thread; afterwards every Post goes to the fallback. Call once, on the
+  // owner thread, after the work that will post was started.
   void WaitAndRun(std::chrono::microseconds budget = kMaxWait) {
     std::function<void()> task;
     {
       std::unique_lock lock(mu_);
-      waiting_ = true;
       cv_.wait_for(lock, budget, [&] { return static_cast<bool>(task_); });
-      waiting_ = false;
+      open_ = false;
       task = std::move(task_);
       task_ = nullptr;
     }
@@ -59,9 +56,10 @@ class InlineCompletion final : public Executor {
 
  private:
   Executor& fallback_;
-  mutable std::mutex mu_;
+  const std::thread::id owner_;
+  std::mutex mu_;
   std::condition_variable cv_;
-  bool waiting_ = false;
+  bool open_ = true;
   std::function<void()> task_;
 };
 

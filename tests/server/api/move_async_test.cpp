@@ -374,28 +374,30 @@ class RecordingExecutor final : public Executor {
   int posted = 0;
 };
 
-TEST(InlineCompletion, PostedWhileWaiting_RunsOnTheWaitingThread) {
+TEST(InlineCompletion, PostedByAnotherThreadBeforeOrDuringTheWait_RunsOnTheOwner) {
   RecordingExecutor fallback;
-  InlineCompletion inline_completion(fallback);
-  std::thread::id ran_on;
-  std::thread poster([&] {
-    while (!inline_completion.waiting()) std::this_thread::yield();
-    inline_completion.Post([&] { ran_on = std::this_thread::get_id(); });
-  });
-  inline_completion.WaitAndRun(std::chrono::duration_cast<std::chrono::microseconds>(kWait));
-  poster.join();
-  EXPECT_EQ(ran_on, std::this_thread::get_id());
+  for (bool before_wait : {true, false}) {
+    InlineCompletion inline_completion(fallback);
+    std::thread::id ran_on;
+    std::thread poster(
+        [&] { inline_completion.Post([&] { ran_on = std::this_thread::get_id(); }); });
+    if (before_wait) poster.join();
+    inline_completion.WaitAndRun(std::chrono::duration_cast<std::chrono::microseconds>(kWait));
+    if (!before_wait) poster.join();
+    EXPECT_EQ(ran_on, std::this_thread::get_id()) << "before_wait=" << before_wait;
+  }
   EXPECT_EQ(fallback.posted, 0);
 }
 
-TEST(InlineCompletion, PostedBeforeTheWaitOrAfterIt_GoesToTheFallback) {
+TEST(InlineCompletion, PostedByTheOwnerOrAfterTheWait_GoesToTheFallback) {
   RecordingExecutor fallback;
   InlineCompletion inline_completion(fallback);
   int ran = 0;
   inline_completion.Post([&] { ++ran; });  // a family's blocking fallback, from inside MoveAsync
   EXPECT_EQ(fallback.posted, 1);
-  inline_completion.WaitAndRun(std::chrono::microseconds(200));  // nothing comes: times out
-  inline_completion.Post([&] { ++ran; });                        // the late completion
+  inline_completion.WaitAndRun(std::chrono::microseconds(200));       // nothing comes: times out
+  std::thread late([&] { inline_completion.Post([&] { ++ran; }); });  // the late completion
+  late.join();
   EXPECT_EQ(fallback.posted, 2);
   EXPECT_EQ(ran, 2);
 }
