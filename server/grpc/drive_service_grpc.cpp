@@ -54,11 +54,12 @@ grpc::ServerReadReactor<v1::CyclicSetpointRequest>* DriveServiceGrpc::StreamCycl
 }
 
 // MoveAbsolute without a blocked worker (issue 10, P1; decision 1301): the drive sends the command
-// at once and the reply is finished from its completion, on a pool thread after the durable audit
-// entry. Only a call that needs the blocking hooks keeps the pool path: an idempotency key
-// (IdempotencyCache::Run waits for the first call) goes through DGW_OFFLOAD's path below, and a
-// bearer token (TokenRepo::Verify reads SQLite) is checked on the pool, which then only starts
-// the move. Otherwise the credentials are checked here as Inline does (in memory).
+// at once and the reply is finished from its completion after the durable audit entry — on this
+// callback thread when the drive answers within 1 ms (decision 1302), else on a pool thread. Only a
+// call that needs the blocking hooks keeps the pool path: an idempotency key (IdempotencyCache::Run
+// waits for the first call) goes through DGW_OFFLOAD's path below, and a bearer token
+// (TokenRepo::Verify reads SQLite) is checked on the pool, which then only starts the move.
+// Otherwise the credentials are checked here as Inline does (in memory).
 grpc::ServerUnaryReactor* DriveServiceGrpc::MoveAbsolute(grpc::CallbackServerContext* ctx,
                                                          const v1::MoveAbsoluteRequest* req,
                                                          v1::CommandHandle* resp) {
@@ -80,13 +81,21 @@ grpc::ServerUnaryReactor* DriveServiceGrpc::MoveAbsolute(grpc::CallbackServerCon
       reactor->Finish(ToGrpcStatus(cc.status()));
       return;
     }
+    auto finish = [reactor, resp](absl::StatusOr<v1::CommandHandle> handle) {
+      if (handle.ok()) *resp = *std::move(handle);
+      reactor->Finish(ToGrpcStatus(handle.status()));
+    };
+    if (!may_wait) {  // already on a pool thread: complete on the pool
+      core_.MoveAbsoluteAsync(*req, *cc, pool_, std::move(finish));
+      return;
+    }
     auto executor = std::make_shared<InlineCompletion>(pool_);
-    core_.MoveAbsoluteAsync(*req, *cc, *executor,
-                            [reactor, resp, executor](absl::StatusOr<v1::CommandHandle> handle) {
-                              if (handle.ok()) *resp = *std::move(handle);
-                              reactor->Finish(ToGrpcStatus(handle.status()));
-                            });
-    if (may_wait) executor->WaitAndRun();
+    core_.MoveAbsoluteAsync(
+        *req, *cc, *executor,
+        [finish = std::move(finish), executor](absl::StatusOr<v1::CommandHandle> handle) mutable {
+          finish(std::move(handle));
+        });
+    executor->WaitAndRun();
   };
   if (!credentials.authorization.empty()) {
     pool_.Post([start, credentials = std::move(credentials)] { start(credentials, false); });

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "drivegw/v1/drive.grpc.pb.h"
+#include "server/auth/authenticator.h"
 #include "server/core/drive_service.h"
 #include "server/core/idempotency.h"
 #include "server/grpc/call_auth.h"
@@ -24,6 +25,7 @@
 #include "storage/audit_log.h"
 #include "storage/db.h"
 #include "storage/migrations.h"
+#include "storage/token_repo.h"
 #include "tests/storage/temp_dir.h"
 
 namespace drivegw::server {
@@ -156,8 +158,10 @@ class MoveAsyncTest : public ::testing::Test {
     pool_.Shutdown();
   }
 
-  void StartGrpc() {
-    service_ = std::make_unique<DriveServiceGrpc>(*core_, pool_, CallAuth::Open(), &idempotency_);
+  // `auth` null: authentication off (CallAuth::Open()).
+  void StartGrpc(const CallAuth* auth = nullptr) {
+    service_ = std::make_unique<DriveServiceGrpc>(*core_, pool_, auth ? *auth : CallAuth::Open(),
+                                                  &idempotency_);
     grpc::ServerBuilder builder;
     builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port_);
     builder.RegisterService(service_.get());
@@ -347,6 +351,36 @@ TEST_F(MoveAsyncTest, Grpc_ClientCancelsWhileTheDriveHoldsTheMove_ServerFinishes
   releaser.join();
   ASSERT_TRUE(s.ok()) << s.error_message();
   EXPECT_EQ(h.name(), "drives/x1/commands/6");
+}
+
+TEST_F(MoveAsyncTest, Grpc_BearerToken_CheckedOnThePoolThenCompletedThere) {
+  storage::TokenRepo tokens(*db_);
+  auto op = tokens.Create("mes-line-3", "operator");
+  ASSERT_TRUE(op.ok()) << op.status();
+  auth::AuthOptions o;
+  o.enabled = true;
+  auth::Authenticator authenticator(o, &tokens);
+  CallAuth call_auth(authenticator, audit_.get());
+  StartGrpc(&call_auth);
+  std::thread releaser([&] {
+    ASSERT_TRUE(drive_->WaitHeld(1));
+    drive_->Release(0, HeldDrive::Active("MoveAbsolute", 9));
+  });
+  grpc::ClientContext ctx;
+  ctx.AddMetadata("authorization", "Bearer " + op->token);
+  ctx.set_deadline(std::chrono::system_clock::now() + kWait);
+  v1::CommandHandle h;
+  grpc::Status s = stub_->MoveAbsolute(&ctx, Request(), &h);
+  releaser.join();
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  EXPECT_EQ(h.name(), "drives/x1/commands/9");
+  const auto entries = MoveEntries();
+  ASSERT_EQ(entries.size(), 1u);
+  EXPECT_EQ(entries[0].principal, "mes-line-3");
+  // The server must stop before the token store and CallAuth above go away.
+  server_->Shutdown(std::chrono::system_clock::now() + 2s);
+  server_->Wait();
+  server_.reset();
 }
 
 TEST_F(MoveAsyncTest, Grpc_IdempotencyKey_KeepsTheBlockingPathAndRunsOnce) {
