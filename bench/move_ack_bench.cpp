@@ -2,8 +2,9 @@
 // drive -> count echo), against baselines measured in the same run: a bare gRPC unary echo and
 // a bare LinUDP round trip to the same kind of simulated drive. Prints p50/p99 and the ratio
 // gateway / (gRPC echo + UDP round trip); target ≤ 1.3 (issue 10 P1, docs/performance.md).
-// Also splits the gateway's time: the core without gRPC, and the core without its audit append,
-// so that the table shows where the microseconds beyond the baselines go.
+// Also splits the gateway's time: at the command's creation, the core without gRPC (blocking and,
+// decision 1301, asynchronous), and the core without its audit append, so that the table shows
+// where the microseconds beyond the baselines go.
 #include <grpcpp/generic/async_generic_service.h>
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
@@ -25,6 +26,7 @@
 #include "bench/report.h"
 #include "drivegw/v1/drive.grpc.pb.h"
 #include "server/gateway.h"
+#include "server/grpc/worker_pool.h"
 #include "sim/linmot/server.h"
 
 namespace {
@@ -33,6 +35,9 @@ using Clock = std::chrono::steady_clock;
 using drivegw::server::Gateway;
 
 int g_errors = 0;  // failed moves (time-outs), reported with the results
+// The gateway row split at the handle's create_time (the drive's StartCommand; both clocks are
+// this process's system clock): call sent -> command created, command created -> reply received.
+std::vector<double> g_to_created, g_from_created;
 
 struct Stats {
   double p50_us = 0, p99_us = 0;
@@ -159,16 +164,25 @@ std::vector<double> MeasureMoveAck(Gateway& gw, int n) {
     req.set_acceleration_mm_s2(10000);
     drivegw::v1::CommandHandle h;
     grpc::ClientContext ctx;
+    const auto w0 = std::chrono::system_clock::now();
     const auto t0 = Clock::now();
     grpc::Status s = stub->MoveAbsolute(&ctx, req, &h);
     const auto t1 = Clock::now();
+    const auto w1 = std::chrono::system_clock::now();
     if (!s.ok()) {
       // A loaded machine can miss the 100 ms acceptance time-out (D-11); count, do not die.
       ++g_errors;
       std::fprintf(stderr, "move %d failed: %s\n", i, s.error_message().c_str());
       continue;
     }
-    if (i >= 50) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    if (i < 50) continue;
+    us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    const auto created = std::chrono::system_clock::time_point(
+        std::chrono::seconds(h.create_time().seconds()) +
+        std::chrono::duration_cast<std::chrono::system_clock::duration>(
+            std::chrono::nanoseconds(h.create_time().nanos())));
+    g_to_created.push_back(std::chrono::duration<double, std::micro>(created - w0).count());
+    g_from_created.push_back(std::chrono::duration<double, std::micro>(w1 - created).count());
   }
   return us;
 }
@@ -269,6 +283,38 @@ std::vector<double> MeasureCoreMoveAck(drivegw::server::DriveServiceCore& core, 
   return us;
 }
 
+// The asynchronous core path the gRPC MoveAbsolute now takes (decision 1301), without gRPC and
+// (called with the unaudited core) without the audit append: MoveAbsoluteAsync from the bench
+// thread (which sends the telegram when the line is free), the reply evaluated on the session's
+// I/O thread, the completion on a pool thread. Its excess over "core direct without audit
+// append" is the price of the pool hop against the blocked caller's condition variable.
+std::vector<double> MeasureCoreAsyncMoveAck(drivegw::server::DriveServiceCore& core,
+                                            drivegw::server::WorkerPool& pool, int n) {
+  std::vector<double> us;
+  drivegw::server::CallContext cc;
+  for (int i = 0; i < n + 50; ++i) {
+    drivegw::v1::MoveAbsoluteRequest req;
+    req.set_name("drives/x1");
+    req.set_position_mm(i % 2 == 0 ? 40 : 60);
+    req.set_velocity_mm_s(1000);
+    req.set_acceleration_mm_s2(10000);
+    std::promise<absl::Status> done;
+    const auto t0 = Clock::now();
+    core.MoveAbsoluteAsync(req, cc, pool, [&](absl::StatusOr<drivegw::v1::CommandHandle> h) {
+      done.set_value(h.status());
+    });
+    const absl::Status s = done.get_future().get();
+    const auto t1 = Clock::now();
+    if (!s.ok()) {
+      ++g_errors;
+      std::fprintf(stderr, "core async move %d failed: %s\n", i, std::string(s.message()).c_str());
+      continue;
+    }
+    if (i >= 50) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+  }
+  return us;
+}
+
 // The floor of a durable audit record: one INSERT of an audit-sized row in its own IMMEDIATE
 // transaction on a prepared statement, in WAL mode with synchronous=NORMAL as storage/db.cpp opens
 // the gateway's database (no hash chain, no retention, no JSON). What an accepted command cannot
@@ -348,7 +394,8 @@ int main(int argc, char** argv) {
   drivegw::server::DriveServiceCore unaudited((*gw)->core().drives(), nullptr);
   const std::string load_before = LoadAverage();
   // Interleave the measurements in rounds so machine noise hits all of them alike.
-  std::vector<double> echo, udp, move, core, bare_core, get, insert, noop;
+  std::vector<double> echo, udp, move, core, bare_core, get, insert, noop, core_async;
+  drivegw::server::WorkerPool bench_pool(2);  // the gateway's own pool size is not exported
   const std::string insert_db = std::string(tmpl) + "/bare_insert.db";
   const int rounds = 4;
   auto append = [](std::vector<double>& to, const std::vector<double>& from) {
@@ -363,22 +410,32 @@ int main(int argc, char** argv) {
     append(insert, MeasureBareInsert(insert_db, n / rounds));
     append(core, MeasureCoreMoveAck((*gw)->core(), n / rounds));
     append(bare_core, MeasureCoreMoveAck(unaudited, n / rounds));
+    // Over the unaudited core: no extra audit rows that would slow the next round's gateway row
+    // (the audit append's share is the two core-direct rows' difference).
+    append(core_async, MeasureCoreAsyncMoveAck(unaudited, bench_pool, n / rounds));
   }
+  bench_pool.Shutdown();
   const Stats se = Summarize(echo), su = Summarize(udp), sm = Summarize(move), sc = Summarize(core),
               sb = Summarize(bare_core), sg = Summarize(get), si = Summarize(insert),
-              sn = Summarize(noop);
+              sn = Summarize(noop), sa = Summarize(core_async);
   std::printf("%-38s %10s %10s\n", "measurement (n per row)", "p50 us", "p99 us");
   std::printf("%-38s %10.1f %10.1f\n", "baseline: bare gRPC unary echo", se.p50_us, se.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "baseline: bare LinUDP round trip", su.p50_us, su.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "baseline sum (echo + round trip)", se.p50_us + su.p50_us,
               se.p99_us + su.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "MoveAbsolute acknowledged (gateway)", sm.p50_us, sm.p99_us);
+  const Stats s_to = Summarize(g_to_created), s_from = Summarize(g_from_created);
+  std::printf("%-38s %10.1f %10.1f\n", "  call sent -> command created", s_to.p50_us, s_to.p99_us);
+  std::printf("%-38s %10.1f %10.1f\n", "  command created -> reply received", s_from.p50_us,
+              s_from.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "GetCommand on the gateway (inline)", sg.p50_us, sg.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "NotFound via the worker pool (offload)", sn.p50_us,
               sn.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "  of which without gRPC (core direct)", sc.p50_us,
               sc.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "  core direct without audit append", sb.p50_us, sb.p99_us);
+  std::printf("%-38s %10.1f %10.1f\n", "  core async without audit (pool hop)", sa.p50_us,
+              sa.p99_us);
   std::printf("%-38s %10.1f %10.1f\n", "bare SQLite INSERT+COMMIT (WAL, NORMAL)", si.p50_us,
               si.p99_us);
   // The floor: both baselines plus the durable record the gateway must write before replying.
@@ -386,8 +443,8 @@ int main(int argc, char** argv) {
   std::printf("floor ratio p50 (echo + round trip + bare insert) / baseline: %.2f\n", floor_p50);
   const double ratio_p50 = sm.p50_us / (se.p50_us + su.p50_us);
   const double ratio_p99 = sm.p99_us / (se.p99_us + su.p99_us);
-  const size_t attempted =
-      move.size() + core.size() + bare_core.size() + static_cast<size_t>(g_errors);
+  const size_t attempted = move.size() + core.size() + bare_core.size() + core_async.size() +
+                           static_cast<size_t>(g_errors);
   std::printf("ratio p50 %.2f  p99 %.2f  (target <= 1.3), n=%zu\n", ratio_p50, ratio_p99,
               move.size());
   std::printf("failed moves: %d of %zu\n", g_errors, attempted);
@@ -403,6 +460,12 @@ int main(int argc, char** argv) {
                                  {"core_p99_us", sc.p99_us},
                                  {"core_no_audit_p50_us", sb.p50_us},
                                  {"core_no_audit_p99_us", sb.p99_us},
+                                 {"core_async_no_audit_p50_us", sa.p50_us},
+                                 {"core_async_no_audit_p99_us", sa.p99_us},
+                                 {"to_created_p50_us", s_to.p50_us},
+                                 {"to_created_p99_us", s_to.p99_us},
+                                 {"from_created_p50_us", s_from.p50_us},
+                                 {"from_created_p99_us", s_from.p99_us},
                                  {"get_command_p50_us", sg.p50_us},
                                  {"get_command_p99_us", sg.p99_us},
                                  {"offload_noop_p50_us", sn.p50_us},

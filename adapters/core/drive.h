@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -18,6 +19,7 @@
 #include "adapters/core/command.h"
 #include "adapters/core/curve.h"
 #include "adapters/core/drive_config.h"
+#include "adapters/core/executor.h"
 
 namespace drivegw {
 
@@ -124,6 +126,17 @@ class Drive {
   virtual absl::StatusOr<CommandInfo> Home() = 0;
   virtual absl::StatusOr<CommandInfo> Move(const MotionCommand& cmd) = 0;
   virtual absl::StatusOr<CommandInfo> AcknowledgeFault() = 0;
+
+  // Move without a blocked caller (issue 10, P1; docs/decisions/1301-async-move.md): starts `cmd`
+  // and calls `done` exactly once with what Move would have returned (the ACTIVE handle, or the
+  // same error). `done` always runs on a thread of `blocking`, never inline in MoveAsync and never
+  // on a family's I/O thread, so it may block briefly (the caller's durable audit append).
+  // `blocking` must outlive the call. The default runs the synchronous Move on `blocking`;
+  // families with a reply-driven session override it to send at once and complete from the reply.
+  using CommandCompletion = std::function<void(absl::StatusOr<CommandInfo>)>;
+  virtual void MoveAsync(const MotionCommand& cmd, Executor& blocking, CommandCompletion done) {
+    blocking.Post([this, cmd, done = std::move(done)] { done(Move(cmd)); });
+  }
 
   // A running cyclic set-point stream: Push queues the next set point (non-blocking; the family
   // forwards one per bus cycle), Close ends the cyclic command (the axis stops with its limits) and

@@ -43,9 +43,9 @@ struct UdpSocketCounters {
   uint64_t truncated = 0;       // received datagrams larger than kMaxDatagramSize (cut)
 };
 
-// Move-only; the destructor closes the socket. SendTo, Receive, Wake, Shutdown and counters()
-// may be called from different threads at the same time; moving or destroying may not overlap
-// any other call.
+// Move-only; the destructor closes the socket. SendTo, SendBatch, Receive, Wake, Shutdown and
+// counters() may be called from different threads at the same time; moving or destroying may not
+// overlap any other call.
 class UdpSocket {
  public:
   static constexpr size_t kMaxDatagramSize = 65507;  // largest IPv4 UDP payload

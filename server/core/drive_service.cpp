@@ -2,6 +2,7 @@
 #include "server/core/drive_service.h"
 
 #include <chrono>
+#include <optional>
 #include <span>
 #include <thread>
 
@@ -126,6 +127,38 @@ absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveAbsolute(const v1::MoveA
     return d.Move(*cmd);
   });
 }
+void DriveServiceCore::MoveAbsoluteAsync(const v1::MoveAbsoluteRequest& r, const CallContext& c,
+                                         Executor& blocking, HandleCompletion done) {
+  // The same steps and order as RunCommand("MoveAbsolute", ...): a refusal before the drive is
+  // audited like there, only on a `blocking` thread (the caller may be gRPC's callback thread).
+  absl::StatusOr<Drive*> drive = Find("name", r.name());
+  std::string drive_name = drive.ok() ? (*drive)->config().name : r.name();
+  absl::Status refused;
+  std::optional<MotionCommand> cmd;
+  if (!drive.ok()) {
+    refused = drive.status();
+  } else if (absl::Status leased = CheckLease(leases_, drive_name, c); !leased.ok()) {
+    refused = leased;
+  } else if (auto valid = ValidateMoveAbsolute(r, (*drive)->config().axis); !valid.ok()) {
+    refused = valid.status();
+  } else {
+    cmd = *std::move(valid);
+  }
+  // What every outcome does last: the durable audit entry, then the reply (decision 017).
+  auto finish = [this, r, c, drive_name,
+                 done = std::move(done)](absl::StatusOr<CommandInfo> info) mutable {
+    absl::StatusOr<v1::CommandHandle> out =
+        info.ok() ? absl::StatusOr<v1::CommandHandle>(ToProto(drive_name, *info)) : info.status();
+    Audit(c, drive_name, "MoveAbsolute", r, out.status());
+    done(std::move(out));
+  };
+  if (!cmd) {
+    blocking.Post([finish = std::move(finish), refused]() mutable { finish(refused); });
+    return;
+  }
+  (*drive)->MoveAsync(*cmd, blocking, std::move(finish));
+}
+
 absl::StatusOr<v1::CommandHandle> DriveServiceCore::MoveRelative(const v1::MoveRelativeRequest& r,
                                                                  const CallContext& c) {
   return RunCommand("MoveRelative", r, c, [&](Drive& d) -> absl::StatusOr<CommandInfo> {

@@ -40,6 +40,14 @@ class DriveServiceCore {
   absl::StatusOr<v1::CommandHandle> Home(const v1::HomeRequest& r, const CallContext& c);
   absl::StatusOr<v1::CommandHandle> MoveAbsolute(const v1::MoveAbsoluteRequest& r,
                                                  const CallContext& c);
+  // MoveAbsolute without a blocked thread (issue 10, P1; decision 1301): the same name lookup,
+  // lease check, validation, drive command and audit entry, the drive started through
+  // Drive::MoveAsync. `done` runs exactly once on a thread of `blocking`, after the audit entry
+  // is durable (never before, never on a drive's I/O thread). Lookup, lease and validation run
+  // on the caller's thread (no I/O); their refusals are audited and reported via `blocking` too.
+  using HandleCompletion = std::function<void(absl::StatusOr<v1::CommandHandle>)>;
+  void MoveAbsoluteAsync(const v1::MoveAbsoluteRequest& r, const CallContext& c, Executor& blocking,
+                         HandleCompletion done);
   absl::StatusOr<v1::CommandHandle> MoveRelative(const v1::MoveRelativeRequest& r,
                                                  const CallContext& c);
   absl::StatusOr<v1::CommandHandle> MoveVelocity(const v1::MoveVelocityRequest& r,

@@ -9,17 +9,20 @@
 #include <thread>
 #include <vector>
 
+#include "adapters/core/executor.h"
+
 namespace drivegw::server {
 
-class WorkerPool {
+// Also the Executor the Drive seam completes asynchronous commands on (adapters/core/executor.h).
+class WorkerPool final : public Executor {
  public:
   explicit WorkerPool(int threads);
-  ~WorkerPool();
+  ~WorkerPool() override;
   WorkerPool(const WorkerPool&) = delete;
   WorkerPool& operator=(const WorkerPool&) = delete;
 
   // Runs `task` on a pool thread; tasks queued after Shutdown() run inline on the caller.
-  void Post(std::function<void()> task);
+  void Post(std::function<void()> task) override;
   void Shutdown();
 
  private:

@@ -223,6 +223,7 @@ void LinMotUdpDrive::DoDeactivate() {
     rtc_block_.reset();
     link_ = LinkState::kUnknown;
     PublishLocked(true);
+    ResolveAsyncAcceptLocked(clock_.Now());  // active_ is false: "drive deactivated"
     cv_.notify_all();
   }
   session.reset();  // the last drive of a session closes its socket here, outside mu_
@@ -302,7 +303,11 @@ void LinMotUdpDrive::OnReply(const Reply& reply, TimePoint received) noexcept {
 
   // Status first: a handle that ends on this reply is then republished with this very sample.
   PublishLocked(false);
+  // Twice, to decide as the blocking waiter would: a deadline that passed before this reply
+  // first (its timer would have woken it), then what this reply settled.
+  ResolveAsyncAcceptLocked(received);
   EvaluateTrackersLocked(received);
+  ResolveAsyncAcceptLocked(received);
   cv_.notify_all();
 }
 
@@ -312,6 +317,7 @@ void LinMotUdpDrive::OnTimeout() noexcept {
   ++timeouts_;
   // Only deadlines advance without a reply; state-based decisions need a fresh sample.
   const TimePoint now = clock_.Now();
+  ResolveAsyncAcceptLocked(now);  // a passed acceptance deadline, as the blocking waiter sees it
   if (motion_) {
     const MotionTracker& m = *motion_;
     if (!m.accepted && now >= m.accept_deadline) {
@@ -332,6 +338,7 @@ void LinMotUdpDrive::OnTimeout() noexcept {
                                " ms: no reply from the drive"));
     homing_.reset();
   }
+  ResolveAsyncAcceptLocked(now);
   cv_.notify_all();
 }
 
@@ -357,6 +364,7 @@ void LinMotUdpDrive::OnLinkChange(LinkState state) noexcept {
     velocity_mm_s_ = demand_velocity_mm_s_ = 0;
     PublishLocked(true);
   }
+  ResolveAsyncAcceptLocked(clock_.Now());
   cv_.notify_all();
 }
 
@@ -652,7 +660,7 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::Finish(uint64_t id, const absl::Stat
 
 absl::StatusOr<CommandInfo> LinMotUdpDrive::Enable() {
   DGW_RETURN_IF_ERROR(RequireActive("Enable"));
-  std::lock_guard op(op_mu_);
+  std::unique_lock op = LockOperation();
   const CommandInfo cmd = StartCommand("Enable", false);
   absl::Status result = [&]() -> absl::Status {
     std::unique_lock lock(mu_);
@@ -693,7 +701,7 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::Enable() {
 
 absl::StatusOr<CommandInfo> LinMotUdpDrive::Disable() {
   DGW_RETURN_IF_ERROR(RequireActive("Disable"));
-  std::lock_guard op(op_mu_);
+  std::unique_lock op = LockOperation();
   const CommandInfo cmd = StartCommand("Disable", false);
   absl::Status result = [&]() -> absl::Status {
     std::unique_lock lock(mu_);
@@ -717,7 +725,7 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::Disable() {
 
 absl::StatusOr<CommandInfo> LinMotUdpDrive::AcknowledgeFault() {
   DGW_RETURN_IF_ERROR(RequireActive("AcknowledgeFault"));
-  std::lock_guard op(op_mu_);
+  std::unique_lock op = LockOperation();
   const CommandInfo cmd = StartCommand("AcknowledgeFault", false);
   absl::Status result = [&]() -> absl::Status {
     std::unique_lock lock(mu_);
@@ -792,7 +800,7 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::AcknowledgeFault() {
 
 absl::StatusOr<CommandInfo> LinMotUdpDrive::Home() {
   DGW_RETURN_IF_ERROR(RequireActive("Home"));
-  std::lock_guard op(op_mu_);
+  std::unique_lock op = LockOperation();
   std::unique_lock lock(mu_);
   const TimePoint now = clock_.Now();
   const TimePoint deadline = now + config().timeouts.request;
@@ -911,30 +919,72 @@ absl::StatusOr<mc::McCommand> LinMotUdpDrive::BuildMotion(const MotionCommand& c
 
 absl::StatusOr<CommandInfo> LinMotUdpDrive::Move(const MotionCommand& cmd) {
   DGW_RETURN_IF_ERROR(RequireActive("Move"));
-  std::lock_guard op(op_mu_);
+  std::unique_lock op = LockOperation();
   std::unique_lock lock(mu_);
+  bool needs_in_target = true;
+  Duration planned{};
+  absl::StatusOr<mc::McCommand> mcc = BuildMoveLocked(cmd, needs_in_target, planned);
+  if (!mcc.ok()) return mcc.status();
+  lock.unlock();
+  return RunMotion(KindName(cmd), *mcc, needs_in_target, planned);
+}
+
+absl::StatusOr<mc::McCommand> LinMotUdpDrive::BuildMoveLocked(const MotionCommand& cmd,
+                                                              bool& needs_in_target,
+                                                              Duration& planned) {
   if (!OnlineLocked()) {
     return absl::UnavailableError(absl::StrCat("drive '", name_, "': ", KindName(cmd),
                                                ": no reply from ", endpoint(), " (link ",
                                                ToString(link_), ")"));
   }
-  bool needs_in_target = true;
-  Duration planned{};
   absl::StatusOr<mc::McCommand> mcc = BuildMotion(cmd, needs_in_target, planned);
   if (!mcc.ok()) {
     return absl::Status(mcc.status().code(),
                         absl::StrCat("drive '", name_, "': ", mcc.status().message()));
   }
-  lock.unlock();
-  return RunMotion(KindName(cmd), *mcc, needs_in_target, planned);
+  return mcc;
 }
 
-absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
-                                                      const mc::McCommand& cmd,
-                                                      bool needs_in_target,
-                                                      std::optional<Duration> planned,
-                                                      std::optional<CurveTrack> curve) {
-  std::unique_lock lock(mu_);
+void LinMotUdpDrive::MoveAsync(const MotionCommand& cmd, Executor& blocking,
+                               CommandCompletion done) {
+  auto fail = [&blocking, &done](absl::Status s) {
+    blocking.Post([done = std::move(done), s = std::move(s)] { done(s); });
+  };
+  if (absl::Status s = RequireActive("Move"); !s.ok()) return fail(std::move(s));
+  // One operation at a time, as Move: while another one runs (or an earlier asynchronous move
+  // waits for its count echo) this move takes the synchronous path on `blocking` and waits its
+  // turn there (LockOperation), so the caller's thread never blocks.
+  std::unique_lock op(op_mu_, std::try_to_lock);
+  std::shared_ptr<Session> session;
+  PeerId peer = 0;
+  {
+    std::unique_lock lock(mu_);
+    if (!op.owns_lock() || async_accept_) {
+      lock.unlock();
+      if (op.owns_lock()) op.unlock();
+      return Drive::MoveAsync(cmd, blocking, std::move(done));
+    }
+    bool needs_in_target = true;
+    Duration planned{};
+    absl::StatusOr<mc::McCommand> mcc = BuildMoveLocked(cmd, needs_in_target, planned);
+    if (!mcc.ok()) return fail(mcc.status());
+    const std::string kind = KindName(cmd);
+    absl::StatusOr<MotionTracker> m =
+        StartMotionLocked(kind, *mcc, needs_in_target, planned, std::nullopt, /*wake=*/false);
+    if (!m.ok()) return fail(m.status());
+    async_accept_ =
+        AsyncAccept{m->id, kind, m->count, m->accept_deadline, &blocking, std::move(done)};
+    session = session_;
+    peer = peer_id_;
+  }
+  // Decision 1301: the telegram leaves from this thread when the line to the drive is free
+  // one outstanding request); otherwise the I/O thread sends it as before (decision 006).
+  if (session && !session->SendUrgentNow(peer)) session->Expedite(peer);
+}
+
+absl::StatusOr<LinMotUdpDrive::MotionTracker> LinMotUdpDrive::StartMotionLocked(
+    const std::string& kind, const mc::McCommand& cmd, bool needs_in_target,
+    std::optional<Duration> planned, std::optional<CurveTrack> curve, bool wake) {
   if (!OnlineLocked()) {
     return absl::UnavailableError(absl::StrCat("drive '", name_, "': ", kind, ": no reply from ",
                                                endpoint(), " (link ", ToString(link_), ")"));
@@ -955,7 +1005,11 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
   const CommandInfo info = StartCommand(kind, true);  // aborts the running motion's handle
   homing_.reset();
   mc_block_ = *block;
-  MarkUrgentLocked();
+  if (wake) {
+    MarkUrgentLocked();
+  } else {
+    urgent_ = true;  // the caller sends it (Session::SendUrgentNow) once mu_ is released
+  }
   const TimePoint now = clock_.Now();
   MotionTracker m;
   m.id = info.id;
@@ -972,22 +1026,29 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
                  .Add("id", info.id)
                  .Add("kind", kind)
                  .Add("header", Hex16(mc::Header{cmd.master_id, cmd.sub_id, count}.raw())));
-  const Wait w = WaitLocked(lock, m.accept_deadline, [&] {
-    return !motion_ || motion_->id != info.id || motion_->accepted;
-  });
+  return m;
+}
+
+bool LinMotUdpDrive::AcceptSettledLocked(uint64_t id) const {
+  return !motion_ || motion_->id != id || motion_->accepted;
+}
+
+absl::StatusOr<CommandInfo> LinMotUdpDrive::AcceptResultLocked(Wait w, uint64_t id,
+                                                               const std::string& kind,
+                                                               uint8_t count) {
   if (w != Wait::kReached) {
     absl::Status s = WaitFailure(
         w, kind.c_str(),
         absl::StrCat("not accepted within ", config().timeouts.accept.count(), " ms (count ", count,
                      ", echo ", sample_.state_var.count_echo(), ", linmot-mc.md D-11)"));
-    if (motion_ && motion_->id == info.id) motion_.reset();
+    if (motion_ && motion_->id == id) motion_.reset();
     DisarmMcBlockLocked(count);
-    UpdateCommand(info.id, CommandState::kError, std::string(s.message()));
+    UpdateCommand(id, CommandState::kError, std::string(s.message()));
     return s;
   }
-  std::optional<CommandInfo> result = GetCommand(info.id);
+  std::optional<CommandInfo> result = GetCommand(id);
   if (!result) return absl::InternalError(absl::StrCat(kind, ": command lost"));
-  if (accepted_id_ != info.id) {
+  if (accepted_id_ != id) {
     // Ended before the drive accepted it: refused (fault) or interrupted.
     const Fault fault = FaultLocked();
     const std::string message = absl::StrCat("drive '", name_, "': ", kind, ": ", result->message);
@@ -999,6 +1060,54 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
     return s;
   }
   return *result;
+}
+
+void LinMotUdpDrive::ResolveAsyncAcceptLocked(TimePoint now) {
+  if (!async_accept_) return;
+  const AsyncAccept& a = *async_accept_;
+  // The order WaitLocked decides in (WaitPeerLocked): inactive, reached, offline, deadline.
+  Wait w;
+  if (!active_) {
+    w = Wait::kInactive;
+  } else if (AcceptSettledLocked(a.id)) {
+    w = Wait::kReached;
+  } else if (link_ == LinkState::kOffline) {
+    w = Wait::kOffline;
+  } else if (now >= a.deadline) {
+    w = Wait::kDeadline;
+  } else {
+    return;
+  }
+  absl::StatusOr<CommandInfo> result = AcceptResultLocked(w, a.id, a.kind, a.count);
+  // Completed on the caller's executor: this is the session's I/O thread (or a deactivating one),
+  // which must not run the caller's audit append (decision 1301).
+  a.executor->Post(
+      [done = std::move(async_accept_->done), result = std::move(result)] { done(result); });
+  async_accept_.reset();
+  cv_.notify_all();  // LockOperation waits for the line to be free
+}
+
+std::unique_lock<std::mutex> LinMotUdpDrive::LockOperation() {
+  std::unique_lock op(op_mu_);
+  std::unique_lock lock(mu_);
+  // An asynchronous move holds the operation until its count echo settles (at most the
+  // acceptance time-out D-11 plus one reply or time-out, or until deactivation).
+  cv_.wait(lock, [&] { return !async_accept_; });
+  return op;
+}
+
+absl::StatusOr<CommandInfo> LinMotUdpDrive::RunMotion(const std::string& kind,
+                                                      const mc::McCommand& cmd,
+                                                      bool needs_in_target,
+                                                      std::optional<Duration> planned,
+                                                      std::optional<CurveTrack> curve) {
+  std::unique_lock lock(mu_);
+  absl::StatusOr<MotionTracker> m =
+      StartMotionLocked(kind, cmd, needs_in_target, planned, std::move(curve), /*wake=*/true);
+  if (!m.ok()) return m.status();
+  const uint64_t id = m->id;
+  const Wait w = WaitLocked(lock, m->accept_deadline, [&] { return AcceptSettledLocked(id); });
+  return AcceptResultLocked(w, id, kind, m->count);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1205,7 +1314,7 @@ absl::StatusOr<NativeReply> LinMotUdpDrive::SendNative(const NativeRequest& req)
     return absl::Status(decoded.status().code(),
                         absl::StrCat(where, ": ", decoded.status().message()));
   }
-  std::lock_guard op(op_mu_);
+  std::unique_lock op = LockOperation();
   DGW_ASSIGN_OR_RETURN(const CommandInfo info,
                        RunMotion(absl::StrCat("Native ", spec->name), decoded->command,
                                  /*needs_in_target=*/false, std::nullopt));

@@ -54,6 +54,11 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   absl::StatusOr<CommandInfo> Disable() override;
   absl::StatusOr<CommandInfo> Home() override;
   absl::StatusOr<CommandInfo> Move(const MotionCommand& cmd) override;
+  // Native asynchronous move (decision 1301): the count handshake of Move, started on the
+  // caller's thread (the telegram leaves from there when the line is free, Session::SendUrgentNow)
+  // and completed on `blocking` from the I/O thread's reply, time-out or link loss, or from
+  // deactivation. While another operation runs it falls back to Move on `blocking`.
+  void MoveAsync(const MotionCommand& cmd, Executor& blocking, CommandCompletion done) override;
   absl::StatusOr<CommandInfo> AcknowledgeFault() override;
 
   // Curves (issue 6; docs/decisions/707-linudp-curve-download-run.md, drive_curves.cpp): the
@@ -207,6 +212,36 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   // the API call hands back.
   absl::StatusOr<CommandInfo> Finish(uint64_t id, const absl::Status& status);
 
+  // An asynchronous move waiting for its count echo (MoveAsync); it holds the operation like
+  // op_mu_ does for a blocking one, so LockOperation waits for it.
+  struct AsyncAccept {
+    uint64_t id = 0;
+    std::string kind;
+    uint8_t count = 0;
+    TimePoint deadline{};
+    Executor* executor = nullptr;
+    CommandCompletion done;
+  };
+  // op_mu_ once no asynchronous move is pending: every blocking operation starts with this.
+  std::unique_lock<std::mutex> LockOperation();
+  // Move's checks and encoding (online, limits, units) with the drive's name in the message.
+  absl::StatusOr<mc::McCommand> BuildMoveLocked(const MotionCommand& cmd, bool& needs_in_target,
+                                                Duration& planned);
+  // Checks state 8, creates the handle and arms the MC block (wake: Expedite the session now;
+  // else the caller sends after releasing mu_).
+  absl::StatusOr<MotionTracker> StartMotionLocked(const std::string& kind, const mc::McCommand& cmd,
+                                                  bool needs_in_target,
+                                                  std::optional<Duration> planned,
+                                                  std::optional<CurveTrack> curve, bool wake);
+  // True once command `id` was accepted or ended (what the count handshake waits for).
+  bool AcceptSettledLocked(uint64_t id) const;
+  // The handshake's result for `id` after a wait that ended with `w` (cleans up a failed one).
+  absl::StatusOr<CommandInfo> AcceptResultLocked(Wait w, uint64_t id, const std::string& kind,
+                                                 uint8_t count);
+  // Completes a pending MoveAsync once its handshake settled (called after every reply,
+  // time-out, link change and on deactivation); posts the completion to its executor.
+  void ResolveAsyncAcceptLocked(TimePoint now);
+
   // Move/SendNative common path: checks state 8, creates the handle, runs the count handshake.
   absl::StatusOr<CommandInfo> RunMotion(const std::string& kind, const mc::McCommand& cmd,
                                         bool needs_in_target, std::optional<Duration> planned,
@@ -265,6 +300,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   uint64_t rtc_answered_ = 0;
 
   std::optional<MotionTracker> motion_;
+  std::optional<AsyncAccept> async_accept_;
   uint64_t accepted_id_ = 0;  // newest motion command the drive accepted (count echo seen)
   std::optional<HomingTracker> homing_;
 

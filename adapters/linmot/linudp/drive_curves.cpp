@@ -150,7 +150,7 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::RunCurve(const Curve& curve,
   DGW_RETURN_IF_ERROR(check_start());
   if (absl::Status s = EnsureCurve(*wire, /*force=*/false); !s.ok()) return Prefixed(where, s);
 
-  std::lock_guard op(op_mu_);
+  std::unique_lock op = LockOperation();
   DGW_RETURN_IF_ERROR(check_start());
   // §5.5 044h (L528): offset 0.1 µm, time scale UInt16 0.01 %, amplitude SInt16 0.1 % — the
   // curve's defaults, which ToWireCurve checked against those ranges.

@@ -82,6 +82,27 @@ void Session::Expedite(PeerId id) {
   socket_.Wake();
 }
 
+bool Session::SendUrgentNow(PeerId id) {
+  // try_lock: the I/O thread holds mu_ for a whole turn (every due peer of the fleet); waiting
+  // for it would block the caller longer than the wake-up this saves.
+  std::unique_lock lock(mu_, std::try_to_lock);
+  if (!lock.owns_lock() || stopping_) return false;
+  auto it = peers_.find(id);
+  if (it == peers_.end()) return false;
+  Peer& p = it->second;
+  if (p.outstanding) return true;  // it leaves on the reply (HandleDatagramLocked)
+  const TimePoint planned_wake =
+      timers_.empty() ? TimePoint::max() : timers_.front().due;  // what the I/O thread sleeps to
+  ServicePeerLocked(p, clock_.Now());  // queues the telegram: the peer reports it urgent
+  FlushLocked();                       // sendmmsg from this thread (UdpSocket is thread-safe)
+  // The reply deadline may now come before the I/O thread's planned wake-up (a cycle longer
+  // than the reply time-out): wake it so that the time-out is seen in time.
+  const bool earlier = !timers_.empty() && timers_.front().due < planned_wake;
+  lock.unlock();
+  if (earlier) socket_.Wake();
+  return true;
+}
+
 Session::~Session() { Stop(); }
 
 void Session::Stop() {

@@ -109,6 +109,13 @@ class Session {
   // if it is idle, else on its reply. Callable from any thread with any lock held (it takes only
   // a leaf lock of its own).
   void Expedite(PeerId id);
+  // Sends peer `id`'s urgent request from the calling thread when the line is free (A-07: no
+  // request outstanding) and the session lock is free at once, so a command does not wait for the
+  // I/O thread to wake (decision 1301). True when that is settled: sent now, or a request is
+  // outstanding and the urgent one leaves on its reply (HandleDatagramLocked). False when the
+  // I/O thread holds the lock or the peer is unknown: the caller then calls Expedite. The caller
+  // must not hold the peer's own lock (lock order: session lock -> peer lock).
+  bool SendUrgentNow(PeerId id);
 
   // Stops the I/O thread (wakes it and joins) and shuts the socket; idempotent, also done by the
   // destructor. Peers get no further callbacks.

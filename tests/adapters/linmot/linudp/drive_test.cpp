@@ -347,7 +347,10 @@ TEST_F(LinMotUdpDriveTest, MoveNotAccepted_ErrorAndNeverExecutedLater) {
   server_->SetAnswering(true);
   WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kEnabled; });
   // An RTC round trip proves telegrams (still carrying the MC block) reached the drive again.
-  ASSERT_TRUE(drive_->ReadParameter({sim::linmot::upid::kPredefVelocity, false}).ok());
+  {
+    auto rp = drive_->ReadParameter({sim::linmot::upid::kPredefVelocity, false});
+    ASSERT_TRUE(rp.ok()) << rp.status();
+  }
   const auto sim = Sim();
   EXPECT_FALSE(sim.motion_active);
   EXPECT_NEAR(sim.demand_position_mm, before, 1e-9);  // the block was disarmed to a NOP
