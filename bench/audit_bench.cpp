@@ -147,11 +147,6 @@ AuditRun RunAudited(int threads, double seconds, bool full_sync) {
   if (full_sync && !db->Exec("PRAGMA synchronous=FULL").ok()) Die("synchronous=FULL");
   if (!ExtraPragmas().empty() && !db->Exec(ExtraPragmas()).ok()) Die("DGW_BENCH_PRAGMAS");
   if (absl::Status m = storage::Migrate(*db); !m.ok()) Die(m.ToString());
-  // As the gateway opens its database (server/gateway.cpp, decision 1352);
-  // DGW_BENCH_INLINE_CHECKPOINTS=1 keeps SQLite's checkpoints on the commits (A/B).
-  if (std::getenv("DGW_BENCH_INLINE_CHECKPOINTS") == nullptr) {
-    if (absl::Status c = db->StartBackgroundCheckpoints(); !c.ok()) Die(c.ToString());
-  }
   storage::AuditLog log(*db);
   // The genesis anchor is written once, outside the measured window.
   if (absl::Status s = log.Append(MoveEntry(0, 0)); !s.ok()) Die(s.ToString());

@@ -313,8 +313,6 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   DGW_ASSIGN_OR_RETURN(storage::Db db, storage::Db::Open(db_path));
   impl->db = std::make_unique<storage::Db>(std::move(db));
   DGW_RETURN_IF_ERROR(storage::Migrate(*impl->db));
-  // Checkpoints off the audited commands' commits (decision 1352).
-  DGW_RETURN_IF_ERROR(impl->db->StartBackgroundCheckpoints());
   impl->audit = std::make_unique<storage::AuditLog>(*impl->db);
   DGW_RETURN_IF_ERROR(impl->audit->SetRetention(
       {cfg.audit.max_entries, cfg.audit.warn_at_percent, cfg.audit.prune_to_percent}));

@@ -7,7 +7,6 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/status.h"
-#include "storage/wal_checkpointer.h"
 
 namespace drivegw::storage {
 namespace {
@@ -197,14 +196,8 @@ struct Db::Impl {
   sqlite3* db = nullptr;
   std::string path;
   mutable Mutex mu;
-  std::unique_ptr<WalCheckpointer> checkpointer;
 
   ~Impl() {
-    if (checkpointer != nullptr) {
-      // The hook points at the checkpointer: unhook before it goes.
-      WalCheckpointer::Detach(db);
-      checkpointer.reset();
-    }
     // close_v2 defers the close until any statement still alive is finalized.
     if (db != nullptr) sqlite3_close_v2(db);
   }
@@ -274,19 +267,6 @@ absl::Status Db::Transaction(const std::function<absl::Status()>& body) {
   // Rolling back after a failed COMMIT is right too: the transaction is still open then.
   if (!sqlite3_get_autocommit(impl_->db)) Exec("ROLLBACK").IgnoreError();
   return status;
-}
-
-absl::Status Db::StartBackgroundCheckpoints() {
-  auto lock = Lock();
-  if (impl_->checkpointer != nullptr) return absl::OkStatus();
-  DGW_ASSIGN_OR_RETURN(impl_->checkpointer, WalCheckpointer::Start(impl_->path));
-  impl_->checkpointer->Attach(impl_->db);
-  return absl::OkStatus();
-}
-
-int64_t Db::BackgroundCheckpoints() const {
-  auto lock = Lock();
-  return impl_->checkpointer != nullptr ? impl_->checkpointer->background_checkpoints() : 0;
 }
 
 std::unique_lock<Db::Mutex> Db::Lock() const { return std::unique_lock<Mutex>(impl_->mu); }

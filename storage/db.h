@@ -93,15 +93,6 @@ class Db {
   // insert + last_insert_rowid). Recursive, so Exec/Prepare may run under it.
   std::unique_lock<Mutex> Lock() const;
 
-  // Moves WAL checkpoints off this connection's commits onto a thread with a connection of its
-  // own (decision 1352): a commit that leaves >= 1000 frames in the WAL only signals the thread,
-  // so no transaction waits for a checkpoint's fsyncs; beyond 4000 frames (the thread fell
-  // behind) the commit checkpoints itself, as SQLite's default would. Durability is unchanged
-  // (every commit still writes the WAL before it returns). Idempotent; stopped by ~Db.
-  absl::Status StartBackgroundCheckpoints();
-  // Checkpoints run by that thread so far (0 when it was not started).
-  int64_t BackgroundCheckpoints() const;
-
   // Valid while Lock() is held right after the INSERT.
   int64_t LastInsertRowId() const;
   // PRAGMA journal_mode as SQLite reports it ("wal" after a successful Open).

@@ -27,9 +27,6 @@ using testing::TempDir;
 [[noreturn]] void AppendForever(const std::string& path) {
   auto db = Db::Open(path);
   if (!db.ok()) _exit(2);
-  // As the gateway runs: checkpoints on their own thread (decision 1352), so the kill also
-  // lands inside background checkpoints (16 KiB bodies pass the 1000-frame mark quickly).
-  if (!db->StartBackgroundCheckpoints().ok()) _exit(4);
   AuditLog log(*db);
   const std::string padding(16 * 1024, 'p');
   for (int64_t i = 0;; ++i) {

@@ -4,9 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <filesystem>
-#include <string>
 
 #include "tests/storage/temp_dir.h"
 
@@ -191,44 +189,6 @@ TEST(DbTest, StatementOutlivesDb_CloseIsDeferred) {
   auto row = stmt.Step();
   ASSERT_TRUE(row.ok() && *row);
   EXPECT_EQ(stmt.ColumnInt(0), 7);
-}
-
-TEST(DbTest, BackgroundCheckpoints_KeepTheWalBoundedAndEveryCommitReadable) {
-  TempDir dir;
-  const std::string path = dir.File("t.db");
-  constexpr int kRows = 10000;  // a 4 KiB page or more per commit: 10x the signal threshold
-  {
-    auto db = Db::Open(path);
-    ASSERT_TRUE(db.ok());
-    ASSERT_TRUE(db->StartBackgroundCheckpoints().ok());
-    ASSERT_TRUE(db->StartBackgroundCheckpoints().ok());  // idempotent
-    ASSERT_TRUE(db->Exec("CREATE TABLE t (id INTEGER PRIMARY KEY, body TEXT NOT NULL)").ok());
-    auto insert = db->Prepare("INSERT INTO t (body) VALUES (?1)");
-    ASSERT_TRUE(insert.ok());
-    const std::string body(3000, 'b');
-    uintmax_t largest_wal = 0;
-    for (int i = 0; i < kRows; ++i) {
-      ASSERT_TRUE(db->Transaction([&]() -> absl::Status {
-                      if (absl::Status s = insert->Bind(1, std::string_view(body)); !s.ok()) {
-                        return s;
-                      }
-                      absl::Status s = insert->Run();
-                      insert->Reset().IgnoreError();
-                      return s;
-                    }).ok());
-      std::error_code ec;
-      largest_wal = std::max(largest_wal, std::filesystem::file_size(path + "-wal", ec));
-    }
-    EXPECT_GT(db->BackgroundCheckpoints(), 0);
-    // Bounded by the inline fallback (4000 frames of 4 KiB + headers, 16.5 MB) with slack for
-    // commits while a checkpoint holds its lock; without checkpoints 10000 commits need > 40 MB.
-    EXPECT_LT(largest_wal, uintmax_t{24} * 1024 * 1024);
-  }  // ~Db stops the thread
-  auto reopened = Db::Open(path);
-  ASSERT_TRUE(reopened.ok());
-  auto count = reopened->Prepare("SELECT COUNT(*) FROM t");
-  ASSERT_TRUE(count.ok() && *count->Step());
-  EXPECT_EQ(count->ColumnInt64(0), kRows);
 }
 
 }  // namespace
