@@ -3,6 +3,7 @@
 #include "storage/audit_log.h"
 
 #include <algorithm>
+#include <limits>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -147,12 +148,14 @@ absl::Status AuditLog::SetRetention(const AuditRetention& r) {
 
 absl::StatusOr<AuditLog::Head> AuditLog::ReadHeadLocked() {
   if (!head_.valid()) {
-    DGW_ASSIGN_OR_RETURN(head_, db_->Prepare("SELECT seq, hash FROM audit_log WHERE seq = "
-                                             "(SELECT MAX(seq) FROM audit_log)"));
+    // The newest row by id is the chain's head (migration 006: id order is seq order); two
+    // descents of the table's b-tree. A legacy row there (seq NULL) means no chain yet.
+    DGW_ASSIGN_OR_RETURN(head_, db_->Prepare("SELECT seq, hash FROM audit_log WHERE id = "
+                                             "(SELECT MAX(id) FROM audit_log)"));
   }
   absl::StatusOr<bool> row = head_.Step();
   Head head;
-  if (row.ok() && *row) {
+  if (row.ok() && *row && !head_.ColumnIsNull(0)) {
     head.seq = head_.ColumnInt64(0);
     head.hash = head_.ColumnText(1);
   }
@@ -229,25 +232,37 @@ absl::Status AuditLog::WriteGenesisLocked(system_clock::time_point time, Head& h
       .status();
 }
 
-absl::StatusOr<int64_t> AuditLog::CountLocked() {
-  // Chained rows are contiguous in seq (pruning removes the oldest), so MIN/MAX on the index
-  // count them without a scan; legacy rows only ever shrink.
-  DGW_ASSIGN_OR_RETURN(const int64_t legacy,
-                       ScalarInt(*db_, "SELECT COUNT(*) FROM audit_log WHERE seq IS NULL", 0));
-  // Two sub-selects, not one SELECT with both aggregates: SQLite (3.40) takes its one-row
-  // min/max index lookup only for a lone MIN or MAX; "MAX(seq) - MIN(seq)" scanned the whole
-  // index on every append (2.1 ms at 20 000 rows, found by bench/move_ack_bench, issue 10).
-  DGW_ASSIGN_OR_RETURN(const int64_t chained,
-                       ScalarInt(*db_,
-                                 "SELECT COALESCE((SELECT MAX(seq) FROM audit_log) - "
-                                 "(SELECT MIN(seq) FROM audit_log) + 1, 0)",
-                                 0));
-  return legacy + chained;
+absl::StatusOr<int64_t> AuditLog::CountLocked(const Head& head) {
+  // Chained rows are contiguous in seq (pruning removes the oldest), so the head's seq and the
+  // oldest chained seq count them without a scan; legacy rows (seq NULL) only ever shrink and
+  // are counted on their own partial index (migration 006).
+  if (!count_legacy_.valid()) {
+    DGW_ASSIGN_OR_RETURN(count_legacy_,
+                         db_->Prepare("SELECT COUNT(*), MAX(id) FROM audit_log WHERE seq IS NULL"));
+    // The oldest chained row is the first one after the last legacy row (id order is seq
+    // order, migration 006): one descent of the table's b-tree.
+    DGW_ASSIGN_OR_RETURN(oldest_chained_,
+                         db_->Prepare("SELECT seq FROM audit_log WHERE id > ?1 AND seq IS NOT "
+                                      "NULL ORDER BY id LIMIT 1"));
+  }
+  DGW_ASSIGN_OR_RETURN(const bool has_row, count_legacy_.Step());
+  const int64_t legacy = has_row ? count_legacy_.ColumnInt64(0) : 0;
+  const int64_t last_legacy_id = has_row && !count_legacy_.ColumnIsNull(1)
+                                     ? count_legacy_.ColumnInt64(1)
+                                     : std::numeric_limits<int64_t>::min();
+  count_legacy_.Reset().IgnoreError();
+  if (head.seq == 0) return legacy;
+  DGW_RETURN_IF_ERROR(oldest_chained_.Bind(1, last_legacy_id));
+  absl::StatusOr<bool> found = oldest_chained_.Step();
+  const int64_t oldest = found.ok() && *found ? oldest_chained_.ColumnInt64(0) : head.seq;
+  oldest_chained_.Reset().IgnoreError();
+  if (!found.ok()) return found.status();
+  return legacy + head.seq - oldest + 1;
 }
 
 absl::Status AuditLog::ApplyRetentionLocked(const AuditRetention& r, system_clock::time_point time,
                                             Head& head, std::vector<std::string>& warnings) {
-  DGW_ASSIGN_OR_RETURN(const int64_t count, CountLocked());
+  DGW_ASSIGN_OR_RETURN(const int64_t count, CountLocked(head));
   if (count >= r.max_entries) {
     // Prune so that, with the anchor, prune_to_percent of the limit remain (at least the
     // entry just appended and the anchor).
@@ -261,7 +276,7 @@ absl::Status AuditLog::ApplyRetentionLocked(const AuditRetention& r, system_cloc
     const int64_t cut_id = cut.ColumnInt64(0);
     DGW_ASSIGN_OR_RETURN(Statement last,
                          db_->Prepare("SELECT seq, hash FROM audit_log WHERE id <= ?1 AND seq IS "
-                                      "NOT NULL ORDER BY seq DESC LIMIT 1"));
+                                      "NOT NULL ORDER BY id DESC LIMIT 1"));
     DGW_RETURN_IF_ERROR(last.Bind(1, cut_id));
     DGW_ASSIGN_OR_RETURN(const bool has_chained, last.Step());
     const int64_t pruned_through = has_chained ? last.ColumnInt64(0) : 0;

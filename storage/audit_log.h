@@ -166,11 +166,13 @@ class AuditLog {
   absl::Status ApplyRetentionLocked(const AuditRetention& r,
                                     std::chrono::system_clock::time_point time, Head& head,
                                     std::vector<std::string>& warnings);
-  absl::StatusOr<int64_t> CountLocked();
+  absl::StatusOr<int64_t> CountLocked(const Head& head);
 
   Db* db_;
-  Statement insert_;  // prepared on first use, guarded by db_->Lock()
-  Statement head_;    // likewise
+  Statement insert_;          // prepared on first use, guarded by db_->Lock()
+  Statement head_;            // likewise
+  Statement count_legacy_;    // likewise (retention)
+  Statement oldest_chained_;  // likewise (retention)
 
   mutable std::mutex group_mu_;  // queue_, leader_active_, Pending::done and ::lead
   std::deque<Pending*> queue_;

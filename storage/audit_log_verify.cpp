@@ -98,9 +98,12 @@ absl::StatusOr<AuditVerifyReport> Walk(Db& db) {
     report.legacy_entries = row ? legacy.ColumnInt64(0) : 0;
   }
   DGW_ASSIGN_OR_RETURN(const std::optional<PruneAnchor> anchor, LatestPruneAnchor(db));
+  // In id order, the table's own b-tree (migration 006 dropped the seq index): the triggers
+  // append every chained row at the highest id, so id order is seq order, and any row out of
+  // place shows as a broken "seq" or "anchor" link below.
   DGW_ASSIGN_OR_RETURN(Statement rows, db.Prepare(absl::StrCat(
                                            "SELECT ", internal::kAuditColumns,
-                                           " FROM audit_log WHERE seq IS NOT NULL ORDER BY seq")));
+                                           " FROM audit_log WHERE seq IS NOT NULL ORDER BY id")));
   auto fail = [&](int64_t seq, std::string field, std::string expected, std::string actual,
                   std::string message) {
     report.ok = false;
@@ -130,7 +133,10 @@ absl::StatusOr<AuditVerifyReport> Walk(Db& db) {
       }
     } else if (r.seq != prev_seq + 1) {
       return fail(prev_seq + 1, "seq", absl::StrCat(prev_seq + 1), absl::StrCat(r.seq),
-                  absl::StrCat("rows seq ", prev_seq + 1, "..", r.seq - 1, " are missing"));
+                  r.seq > prev_seq
+                      ? absl::StrCat("rows seq ", prev_seq + 1, "..", r.seq - 1, " are missing")
+                      : absl::StrCat("seq ", r.seq, " follows seq ", prev_seq,
+                                     " in row id order: a row was put out of place"));
     }
     if (r.prev_hash != expected_prev) {
       return fail(r.seq, "prev_hash", expected_prev, r.prev_hash,

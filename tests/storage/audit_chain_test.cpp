@@ -3,7 +3,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <array>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "nlohmann/json.hpp"
@@ -173,24 +176,49 @@ TEST_F(AuditChainTest, Triggers_RefuseUpdateDeleteAndOffChainInserts) {
     // Off the chain, a taken sequence number, a gap: the next one would be 3.
     EXPECT_THAT(s.message(), HasSubstr("only appended to the end of the hash chain")) << seq;
   }
+  // With the right next seq but not at the end by id (migration 006 ties seq order to id order):
+  // an explicit id below the newest, and INSERT OR REPLACE of an existing row (REPLACE deletes
+  // without firing audit_log_no_delete), the head's id with the head's seq included.
+  for (const auto& [verb, id, seq] :
+       std::vector<std::array<std::string, 3>>{{"INSERT", "-1", "3"},
+                                               {"INSERT OR REPLACE", "1", "3"},
+                                               {"INSERT OR REPLACE", "2", "3"},
+                                               {"INSERT OR REPLACE", "2", "2"}}) {
+    s = db_->Exec(absl::StrCat(
+        verb,
+        " INTO audit_log (id, ts, principal, source_address, drive, action, request_json, "
+        "result_code, result_message, seq, prev_hash, hash) VALUES (",
+        id, ", '2024-05-01T12:00:00.000Z', 'm', '', '', 'x', '{}', 0, '', ", seq, ", '", h, "', '",
+        h, "')"));
+    EXPECT_THAT(s.message(), HasSubstr("only appended to the end of the hash chain"))
+        << verb << " id " << id << " seq " << seq;
+  }
   EXPECT_EQ(*log_->Count(), 2);
   EXPECT_TRUE(VerifyOrDie().ok);
 }
 
 TEST_F(AuditChainTest, LegacyRows_CoveredByTheGenesisDigest) {
-  // Rows as migration 001 wrote them (seq NULL): the chain trigger is lifted for the setup only.
+  // Rows as migration 001 wrote them (seq NULL): the chain triggers (005, 006) are lifted for
+  // the setup only.
   auto trig = db_->Prepare(
-      "SELECT sql FROM sqlite_master WHERE type = 'trigger' AND name = 'audit_log_chain_append'");
-  ASSERT_TRUE(trig.ok() && *trig->Step());
-  const std::string create = trig->ColumnText(0);
-  ExecOrDie("DROP TRIGGER audit_log_chain_append");
+      "SELECT name, sql FROM sqlite_master WHERE type = 'trigger' AND name LIKE "
+      "'audit_log_chain_%'");
+  ASSERT_TRUE(trig.ok());
+  std::vector<std::string> names, creates;
+  while (*trig->Step()) {
+    names.push_back(trig->ColumnText(0));
+    creates.push_back(trig->ColumnText(1));
+  }
+  trig->Reset().IgnoreError();
+  ASSERT_EQ(creates.size(), 2u);
+  for (const std::string& name : names) ExecOrDie(absl::StrCat("DROP TRIGGER ", name));
   for (int i = 0; i < 3; ++i) {
     ExecOrDie(absl::StrCat(
         "INSERT INTO audit_log (ts, principal, source_address, drive, action, request_json, "
         "result_code, result_message) VALUES ('2024-05-01T11:00:00.00",
         i, "Z', 'bob', '', 'x1', 'Enable', '{}', 0, '')"));
   }
-  ExecOrDie(create);
+  for (const std::string& create : creates) ExecOrDie(create);
   AppendOrDie(MakeEntry("x1", "Disable"));
   const auto rows = All();
   ASSERT_EQ(rows.size(), 5u);
