@@ -74,6 +74,7 @@ constexpr auto kCycle = 2ms;
 constexpr auto kReplyTimeout = 50ms;   // A-10 default
 constexpr int kMaxDrivesPerSim = 256;  // drivegw-sim linmot --count limit
 constexpr uint32_t kLoopback = 0x7F000001;
+constexpr int kRtPriority = 10;  // `rt`: SCHED_FIFO priority of both sides and the simulators
 
 double CpuSeconds() {
   rusage u{};
@@ -224,6 +225,17 @@ struct Window {
   double cpu_s = 0;      // this process
   double sim_cpu_s = 0;  // the simulator processes
   double load = 0;
+  // The host during this very window (HostProbe, same priority, running alongside): what a
+  // loop that does nothing but wake on the 2 ms grid lost, and the hypervisor's steal time.
+  uint64_t host_wakeups = 0;
+  uint64_t host_late = 0;    // wake-ups more than 1 ms (half a cycle) late
+  double host_stall_ms = 0;  // sum of the lateness of those wake-ups
+  double host_max_late_us = 0;
+  double steal_ms = 0;  // /proc/stat steal, all CPUs
+  double host_late_pct() const {
+    return host_wakeups ? 100.0 * static_cast<double>(host_late) / static_cast<double>(host_wakeups)
+                        : 0;
+  }
   double late_pct() const {
     return cycles ? 100.0 * static_cast<double>(late) / static_cast<double>(cycles) : 100.0;
   }
@@ -235,9 +247,72 @@ struct Window {
   }
 };
 
+// The host alone: a thread that only sleeps to an absolute 2 ms grid (clock_nanosleep) and
+// records how late it wakes, at the same priority as the two sides. No network, no LinUDP: the
+// fraction of wake-ups late by more than half a cycle bounds what any 2 ms loop can meet here.
+struct HostProbe {
+  uint64_t wakeups = 0;
+  uint64_t late_half_cycle = 0;  // woke more than 1 ms after its grid point
+  double late_sum_us = 0;        // summed lateness of those wake-ups
+  double max_late_us = 0;
+  double late_pct() const {
+    return wakeups ? 100.0 * static_cast<double>(late_half_cycle) / static_cast<double>(wakeups)
+                   : 0;
+  }
+};
+
+HostProbe ProbeHostUntil(SteadyClock::time_point end) {
+  HostProbe h;
+  timespec next{};
+  clock_gettime(CLOCK_MONOTONIC, &next);
+  while (SteadyClock::now() < end) {
+    next.tv_nsec += std::chrono::nanoseconds(kCycle).count();
+    if (next.tv_nsec >= 1'000'000'000) {
+      next.tv_nsec -= 1'000'000'000;
+      ++next.tv_sec;
+    }
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
+    timespec now{};
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    const double late_us = static_cast<double>(now.tv_sec - next.tv_sec) * 1e6 +
+                           static_cast<double>(now.tv_nsec - next.tv_nsec) / 1e3;
+    ++h.wakeups;
+    if (late_us > 1000) {
+      ++h.late_half_cycle;
+      h.late_sum_us += late_us;
+    }
+    h.max_late_us = std::max(h.max_late_us, late_us);
+  }
+  return h;
+}
+
+HostProbe ProbeHost(double seconds) {
+  return ProbeHostUntil(SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                 std::chrono::duration<double>(seconds)));
+}
+
+// Steal time of the whole machine (/proc/stat "cpu" line, 8th value): time the hypervisor ran
+// something else while a virtual CPU of this guest wanted to run. Milliseconds.
+double StealMs() {
+  std::ifstream f("/proc/stat");
+  std::string cpu;
+  double v[8] = {};
+  f >> cpu;
+  for (double& x : v) f >> x;
+  return v[7] * 1000.0 / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+void AddHost(Window& w, const HostProbe& h, double steal_ms) {
+  w.host_wakeups = h.wakeups;
+  w.host_late = h.late_half_cycle;
+  w.host_stall_ms = h.late_sum_us / 1000.0;
+  w.host_max_late_us = h.max_late_us;
+  w.steal_ms = steal_ms;
+}
+
 // ---- gateway side -------------------------------------------------------------------------
 
-drivegw::DriveConfig DriveConfigFor(int i, const SimFarm& farm) {
+drivegw::DriveConfig DriveConfigFor(int i, const SimFarm& farm, int io_priority) {
   drivegw::DriveConfig c;
   c.name = "b" + std::to_string(i + 1);
   c.family = "linmot";
@@ -252,6 +327,9 @@ drivegw::DriveConfig DriveConfigFor(int i, const SimFarm& farm) {
   l.master_port = farm.master_port;
   l.cycle = kCycle;
   l.reply_timeout = kReplyTimeout;
+  // `rt`: the I/O thread's SCHED_FIFO priority set the way an installation sets it
+  // (linudp.io_priority, decision 1311), the same priority the bare loop runs at.
+  l.io_priority = io_priority;
   c.linudp = l;
   return c;
 }
@@ -274,11 +352,11 @@ Totals Sum(const std::vector<std::unique_ptr<drivegw::Drive>>& drives) {
   return t;
 }
 
-std::optional<Window> MeasureGateway(int n, const SimFarm& farm, double seconds) {
+std::optional<Window> MeasureGateway(int n, const SimFarm& farm, double seconds, int io_priority) {
   std::vector<std::unique_ptr<drivegw::Drive>> drives;
   for (int i = 0; i < n; ++i) {
-    auto d =
-        linudp::CreateLinMotUdpDrive(DriveConfigFor(i, farm), drivegw::SteadyClock::Instance());
+    auto d = linudp::CreateLinMotUdpDrive(DriveConfigFor(i, farm, io_priority),
+                                          drivegw::SteadyClock::Instance());
     if (!d.ok()) {
       std::fprintf(stderr, "drive: %s\n", std::string(d.status().message()).c_str());
       return std::nullopt;
@@ -306,11 +384,13 @@ std::optional<Window> MeasureGateway(int n, const SimFarm& farm, double seconds)
   }
   std::this_thread::sleep_for(300ms);
   const Totals a = Sum(drives);
-  const double cpu_a = CpuSeconds(), sim_a = farm.CpuSeconds();
+  const double cpu_a = CpuSeconds(), sim_a = farm.CpuSeconds(), steal_a = StealMs();
   const auto t_a = SteadyClock::now();
-  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  // This thread would only sleep through the window: it probes the host instead.
+  const HostProbe host = ProbeHostUntil(t_a + std::chrono::duration_cast<SteadyClock::duration>(
+                                                  std::chrono::duration<double>(seconds)));
   const Totals b = Sum(drives);
-  const double cpu_b = CpuSeconds(), sim_b = farm.CpuSeconds();
+  const double cpu_b = CpuSeconds(), sim_b = farm.CpuSeconds(), steal_b = StealMs();
   const auto t_b = SteadyClock::now();
   Window w;
   w.seconds = std::chrono::duration<double>(t_b - t_a).count();
@@ -322,6 +402,7 @@ std::optional<Window> MeasureGateway(int n, const SimFarm& farm, double seconds)
   w.cpu_s = cpu_b - cpu_a;
   w.sim_cpu_s = sim_b - sim_a;
   w.load = LoadAverage();
+  AddHost(w, host, steal_b - steal_a);
   for (auto& d : drives) d->Deactivate();  // the last one closes the shared master socket
   return w;
 }
@@ -377,8 +458,14 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
   const auto warm_end = period + 300ms;
   const auto end = warm_end + std::chrono::duration_cast<SteadyClock::duration>(
                                   std::chrono::duration<double>(seconds));
-  double cpu_a = 0, sim_a = 0;
+  double cpu_a = 0, sim_a = 0, steal_a = 0;
   SteadyClock::time_point t_a;
+  // The host probe runs alongside the measured window, as on the gateway side.
+  HostProbe host;
+  std::thread prober([&host, warm_end, end] {
+    std::this_thread::sleep_until(warm_end);
+    host = ProbeHostUntil(end);
+  });
   auto roll = [&](SteadyClock::time_point now) {
     if (now < period + kCycle) return;
     const auto k = static_cast<uint64_t>((now - period) / kCycle);
@@ -406,6 +493,7 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
       sent = replies = timeouts = cycles = late = 0;
       cpu_a = CpuSeconds();
       sim_a = farm.CpuSeconds();
+      steal_a = StealMs();
       t_a = now;
     }
     if (now >= end) break;
@@ -440,45 +528,11 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
   w.cycles = cycles;
   w.late = late;
   w.load = LoadAverage();
+  const double steal_b = StealMs();
+  prober.join();
+  AddHost(w, host, steal_b - steal_a);
   ::close(fd);
   return w;
-}
-
-// The host alone: a thread that only sleeps to an absolute 2 ms grid (clock_nanosleep) and
-// records how late it wakes, at the same priority as the two sides. No network, no LinUDP: the
-// fraction of wake-ups late by more than half a cycle bounds what any 2 ms loop can meet here.
-struct HostProbe {
-  uint64_t wakeups = 0;
-  uint64_t late_half_cycle = 0;  // woke more than 1 ms after its grid point
-  double max_late_us = 0;
-  double late_pct() const {
-    return wakeups ? 100.0 * static_cast<double>(late_half_cycle) / static_cast<double>(wakeups)
-                   : 0;
-  }
-};
-
-HostProbe ProbeHost(double seconds) {
-  HostProbe h;
-  timespec next{};
-  clock_gettime(CLOCK_MONOTONIC, &next);
-  const auto end = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
-                                            std::chrono::duration<double>(seconds));
-  while (SteadyClock::now() < end) {
-    next.tv_nsec += std::chrono::nanoseconds(kCycle).count();
-    if (next.tv_nsec >= 1'000'000'000) {
-      next.tv_nsec -= 1'000'000'000;
-      ++next.tv_sec;
-    }
-    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
-    timespec now{};
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    const double late_us = static_cast<double>(now.tv_sec - next.tv_sec) * 1e6 +
-                           static_cast<double>(now.tv_nsec - next.tv_nsec) / 1e3;
-    ++h.wakeups;
-    if (late_us > 1000) ++h.late_half_cycle;
-    h.max_late_us = std::max(h.max_late_us, late_us);
-  }
-  return h;
 }
 
 struct Row {
@@ -498,7 +552,12 @@ nlohmann::json WindowJson(const Window& w) {
           {"cpu_pct_of_core", 100 * w.cpu_s / w.seconds},
           {"sim_cpu_us_per_exchange", w.sim_us_per_exchange()},
           {"sim_cpu_pct_of_core", 100 * w.sim_cpu_s / w.seconds},
-          {"load_average", w.load}};
+          {"load_average", w.load},
+          {"host_late_pct", w.host_late_pct()},
+          {"host_wakeups", w.host_wakeups},
+          {"host_stall_ms", w.host_stall_ms},
+          {"host_max_late_us", w.host_max_late_us},
+          {"steal_ms", w.steal_ms}};
 }
 
 std::vector<int> ParseList(const char* text) {
@@ -519,7 +578,7 @@ int main(int argc, char** argv) {
   bool rt = argc > 3 && std::string(argv[3]) == "rt";
   if (rt) {
     sched_param param{};
-    param.sched_priority = 10;
+    param.sched_priority = kRtPriority;
     if (::sched_setscheduler(0, SCHED_FIFO, &param) != 0) {
       // Not root: measured at normal priority, and the output says so.
       std::fprintf(stderr, "rt: sched_setscheduler: %s (normal priority)\n", std::strerror(errno));
@@ -537,9 +596,11 @@ int main(int argc, char** argv) {
   std::printf("host: %llu wake-ups on a 2 ms grid, %.3f %% late by > 1 ms, max %.0f us\n",
               static_cast<unsigned long long>(host.wakeups), host.late_pct(), host.max_late_us);
   std::fflush(stdout);
-  std::printf("%5s | %10s %8s %9s %7s %7s | %10s %8s %9s %7s | %6s\n", "N", "gw exch/s", "gw late%",
-              "gw us/tg", "gw cpu%", "sim%", "bare ex/s", "bare lt%", "bare us/tg", "sim%",
-              "ratio");
+  // host% / stall / steal: the host probe alongside each window (wake-ups > 1 ms late, their
+  // summed lateness in ms, the hypervisor's steal time in ms).
+  std::printf("%5s | %10s %8s %9s %7s %7s %6s %6s %6s | %10s %8s %9s %7s %6s %6s %6s | %6s\n", "N",
+              "gw exch/s", "gw late%", "gw us/tg", "gw cpu%", "sim%", "host%", "stall", "steal",
+              "bare ex/s", "bare lt%", "bare us/tg", "sim%", "host%", "stall", "steal", "ratio");
   std::fflush(stdout);
   std::vector<Row> rows;
   bool failed = false;
@@ -550,7 +611,7 @@ int main(int argc, char** argv) {
       failed = true;
       break;
     }
-    auto gw = MeasureGateway(n, *farm, seconds);
+    auto gw = MeasureGateway(n, *farm, seconds, rt ? kRtPriority : 0);
     auto bare = gw ? MeasureBareLoop(n, *farm, seconds) : std::nullopt;
     if (!gw || !bare || gw->exchanges == 0 || bare->exchanges == 0) {
       std::fprintf(stderr, "N=%d: a side exchanged nothing\n", n);
@@ -558,12 +619,15 @@ int main(int argc, char** argv) {
       break;
     }
     const double ratio = gw->cpu_us_per_exchange() / bare->cpu_us_per_exchange();
-    std::printf("%5d | %10.0f %8.3f %9.2f %7.1f %7.1f | %10.0f %8.3f %9.2f %7.1f | %6.2f\n", n,
-                static_cast<double>(gw->exchanges) / gw->seconds, gw->late_pct(),
-                gw->cpu_us_per_exchange(), 100 * gw->cpu_s / gw->seconds,
-                100 * gw->sim_cpu_s / gw->seconds,
-                static_cast<double>(bare->exchanges) / bare->seconds, bare->late_pct(),
-                bare->cpu_us_per_exchange(), 100 * bare->sim_cpu_s / bare->seconds, ratio);
+    std::printf(
+        "%5d | %10.0f %8.3f %9.2f %7.1f %7.1f %6.3f %6.1f %6.0f | %10.0f %8.3f %9.2f %7.1f %6.3f "
+        "%6.1f %6.0f | %6.2f\n",
+        n, static_cast<double>(gw->exchanges) / gw->seconds, gw->late_pct(),
+        gw->cpu_us_per_exchange(), 100 * gw->cpu_s / gw->seconds, 100 * gw->sim_cpu_s / gw->seconds,
+        gw->host_late_pct(), gw->host_stall_ms, gw->steal_ms,
+        static_cast<double>(bare->exchanges) / bare->seconds, bare->late_pct(),
+        bare->cpu_us_per_exchange(), 100 * bare->sim_cpu_s / bare->seconds, bare->host_late_pct(),
+        bare->host_stall_ms, bare->steal_ms, ratio);
     std::fflush(stdout);
     rows.push_back({n, *gw, *bare});
   }

@@ -6,7 +6,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "adapters/core/log.h"
+#include "adapters/core/status.h"
 #include "adapters/core/wire_observer.h"
 
 namespace drivegw::linmot::linudp {
@@ -50,24 +52,40 @@ const char* ToString(LinkState s) {
   return "?";
 }
 
-absl::StatusOr<std::shared_ptr<Session>> Session::Open(const transport::Endpoint& local,
-                                                       const Clock& clock) {
+absl::StatusOr<std::shared_ptr<Session>> Session::Open(
+    const transport::Endpoint& local, const Clock& clock,
+    const transport::ThreadScheduling& scheduling) {
+  const std::string where = absl::StrCat("linudp session ", local.ToString());
+  DGW_RETURN_IF_ERROR(transport::ValidateThreadScheduling(scheduling, where));
   // Exclusive bind: a second gateway on the same master port must fail loudly instead of
   // stealing half of the replies (docs/decisions/202-udp-reuseaddr.md).
   transport::UdpSocket::BindOptions options;
   options.reuse_address = false;
   auto socket = transport::UdpSocket::Bind(local, options);
   if (!socket.ok()) return socket.status();
-  std::shared_ptr<Session> session(new Session(std::move(*socket), clock));
+  std::shared_ptr<Session> session(new Session(std::move(*socket), clock, scheduling));
   session->thread_ = std::thread([s = session.get()] { s->Run(); });
-  log::Info("linudp_session_open", log::Fields().Add("local", session->local_.ToString()));
+  // Applied from here so that a refusal reaches the caller; the thread has sent nothing yet
+  // (no peer can register before Open returns).
+  if (absl::Status s =
+          transport::ApplyThreadScheduling(session->thread_.native_handle(), scheduling, where);
+      !s.ok()) {
+    session->Stop();
+    return s;
+  }
+  log::Info("linudp_session_open", log::Fields()
+                                       .Add("local", session->local_.ToString())
+                                       .Add("io_priority", scheduling.fifo_priority)
+                                       .Add("io_cpus", absl::StrJoin(scheduling.cpus, ",")));
   return session;
 }
 
-Session::Session(transport::UdpSocket socket, const Clock& clock)
+Session::Session(transport::UdpSocket socket, const Clock& clock,
+                 transport::ThreadScheduling scheduling)
     : clock_(clock),
       socket_(std::move(socket)),
       local_(socket_.local_endpoint()),
+      scheduling_(std::move(scheduling)),
       epoch_(clock.Now()),
       receive_buffers_(kReceiveBatch) {
   receive_slots_.resize(kReceiveBatch);
@@ -378,6 +396,9 @@ void Session::HandleDatagramLocked(const transport::DatagramSlot& d, TimePoint n
 }
 
 void Session::Run() {
+  // Every wait of this loop is a timed ppoll to a grid tick; at the normal policy the default
+  // 50 us slack would let the kernel defer each of them (decision 1311).
+  transport::MinimiseTimerSlack();
   std::unique_lock lock(mu_);
   while (!stopping_) {
     TimePoint now = clock_.Now();
@@ -408,16 +429,27 @@ SessionPool& SessionPool::Instance() {
   return *pool;
 }
 
-absl::StatusOr<std::shared_ptr<Session>> SessionPool::Acquire(const transport::Endpoint& local,
-                                                              const Clock& clock) {
-  if (local.port == 0) return Session::Open(local, clock);
+absl::StatusOr<std::shared_ptr<Session>> SessionPool::Acquire(
+    const transport::Endpoint& local, const Clock& clock,
+    const transport::ThreadScheduling& scheduling) {
+  if (local.port == 0) return Session::Open(local, clock, scheduling);
   std::lock_guard lock(mu_);
   auto it = sessions_.find(local);
   if (it != sessions_.end()) {
-    if (std::shared_ptr<Session> live = it->second.lock()) return live;
+    if (std::shared_ptr<Session> live = it->second.lock()) {
+      // One I/O thread serves every drive of the endpoint; it cannot run at two
+      // priorities, and taking either one silently would hide a configuration error.
+      if (!(live->scheduling() == scheduling)) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "linudp session ", local.ToString(), " runs its I/O thread with ",
+            live->scheduling().ToString(), ", this drive asks for ", scheduling.ToString(),
+            ": drives sharing bind_host:master_port must give the same values"));
+      }
+      return live;
+    }
     sessions_.erase(it);
   }
-  auto opened = Session::Open(local, clock);
+  auto opened = Session::Open(local, clock, scheduling);
   if (!opened.ok()) return opened.status();
   sessions_[local] = *opened;
   return *opened;

@@ -20,6 +20,7 @@
 #include "adapters/core/clock.h"
 #include "adapters/linmot/linudp/codec.h"
 #include "adapters/transport/endpoint.h"
+#include "adapters/transport/thread_scheduling.h"
 #include "adapters/transport/udp_socket.h"
 
 namespace drivegw::linmot::linudp {
@@ -87,10 +88,13 @@ using PeerId = uint64_t;
 
 class Session {
  public:
-  // Binds `local` and starts the I/O thread. `clock` must advance in real time (the socket
-  // waits in real time) and outlive the session.
-  static absl::StatusOr<std::shared_ptr<Session>> Open(const transport::Endpoint& local,
-                                                       const Clock& clock);
+  // Binds `local` and starts the I/O thread with `scheduling` (linudp.io_priority / io_cpus,
+  // decision 1311). `clock` must advance in real time (the socket waits in real time) and
+  // outlive the session. A scheduling the system refuses fails the open (PermissionDenied
+  // without CAP_SYS_NICE), it is never dropped silently.
+  static absl::StatusOr<std::shared_ptr<Session>> Open(
+      const transport::Endpoint& local, const Clock& clock,
+      const transport::ThreadScheduling& scheduling = {});
   ~Session();
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
@@ -116,6 +120,7 @@ class Session {
 
   // The bound address (with the kernel's port when opened with port 0).
   transport::Endpoint local_endpoint() const { return local_; }
+  const transport::ThreadScheduling& scheduling() const { return scheduling_; }
   SessionCounters counters() const;
   std::optional<ExchangeCounters> peer_counters(PeerId id) const;
   std::optional<LinkState> link_state(PeerId id) const;
@@ -156,7 +161,7 @@ class Session {
   };
   static constexpr size_t kReceiveSlotSize = 512;  // LinUDP replies are <= 64 bytes
 
-  Session(transport::UdpSocket socket, const Clock& clock);
+  Session(transport::UdpSocket socket, const Clock& clock, transport::ThreadScheduling scheduling);
   void Run();
   // Pops every timer due by `now`: time-outs and cyclic sends.
   void FireTimersLocked(TimePoint now);
@@ -178,6 +183,7 @@ class Session {
   const Clock& clock_;
   transport::UdpSocket socket_;
   const transport::Endpoint local_;
+  const transport::ThreadScheduling scheduling_;
   const TimePoint epoch_;  // grid origin: every peer's periods start on a kGridTick boundary
   mutable std::mutex mu_;  // registrations, peer state, counters; held during peer callbacks
   bool stopping_ = false;
@@ -206,9 +212,12 @@ class Session {
 class SessionPool {
  public:
   static SessionPool& Instance();
-  // The live session bound to `local`, or a newly opened one (bind errors name the address).
-  absl::StatusOr<std::shared_ptr<Session>> Acquire(const transport::Endpoint& local,
-                                                   const Clock& clock);
+  // The live session bound to `local`, or a newly opened one (bind and scheduling errors name
+  // the address). FailedPrecondition when the live session runs its I/O thread with another
+  // `scheduling`: every drive sharing bind_host:master_port must ask for the same one.
+  absl::StatusOr<std::shared_ptr<Session>> Acquire(
+      const transport::Endpoint& local, const Clock& clock,
+      const transport::ThreadScheduling& scheduling = {});
 
  private:
   std::mutex mu_;

@@ -486,6 +486,35 @@ TEST(SessionPool, SameLocalEndpoint_SharedSession_PortZeroNever) {
   (void)old;
 }
 
+// Decision 1311: one I/O thread per master socket, so drives sharing it must ask for the same
+// scheduling; a different one is refused, never silently replaced by the first drive's.
+TEST(SessionPool, SharedEndpoint_OtherScheduling_FailedPrecondition) {
+  auto& pool = SessionPool::Instance();
+  auto probe = pool.Acquire(Endpoint{Endpoint::kLoopback, 0}, SteadyClock::Instance());
+  ASSERT_TRUE(probe.ok());
+  const uint16_t port = (*probe)->local_endpoint().port;
+  probe->reset();
+  const Endpoint local{Endpoint::kLoopback, port};
+  const transport::ThreadScheduling pinned{0, {0}};
+  auto first = pool.Acquire(local, SteadyClock::Instance(), pinned);
+  ASSERT_TRUE(first.ok()) << first.status();
+  EXPECT_EQ((*first)->scheduling(), pinned);
+  auto same = pool.Acquire(local, SteadyClock::Instance(), pinned);
+  ASSERT_TRUE(same.ok());
+  EXPECT_EQ(first->get(), same->get());
+  auto other = pool.Acquire(local, SteadyClock::Instance(), {});
+  EXPECT_EQ(other.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(other.status().message().find("io_cpus=[0]"), std::string::npos) << other.status();
+}
+
+// A scheduling the system cannot give fails the open with the key named (no fallback).
+TEST(Session, Open_CpuNotOnline_InvalidArgumentNamesKey) {
+  auto s = Session::Open(Endpoint{Endpoint::kLoopback, 0}, SteadyClock::Instance(),
+                         transport::ThreadScheduling{0, {1023}});
+  EXPECT_EQ(s.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.status().message().find("io_cpus"), std::string::npos) << s.status();
+}
+
 TEST(SessionPool, PortHeldByAnotherSocket_BindErrorNamesAddress) {
   auto other = UdpSocket::Bind(Endpoint{Endpoint::kLoopback, 0}, {.reuse_address = false});
   ASSERT_TRUE(other.ok());

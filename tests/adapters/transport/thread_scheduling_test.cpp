@@ -1,0 +1,147 @@
+// ThreadScheduling: validation, SCHED_FIFO and affinity on a real thread, and the refusal
+// without CAP_SYS_NICE (decision 1311: an error naming the fix, never a silent fallback).
+#include "adapters/transport/thread_scheduling.h"
+
+#include <gtest/gtest.h>
+#include <linux/capability.h>
+#include <sched.h>
+#include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+namespace drivegw::transport {
+namespace {
+
+// A thread that waits until released, so that it can be inspected while it runs.
+class ParkedThread {
+ public:
+  ParkedThread()
+      : thread_([this] {
+          std::unique_lock lock(mu_);
+          cv_.wait(lock, [this] { return released_; });
+        }) {}
+  ~ParkedThread() {
+    {
+      std::lock_guard lock(mu_);
+      released_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  pthread_t handle() { return thread_.native_handle(); }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool released_ = false;
+  std::thread thread_;
+};
+
+// True when this process may use SCHED_FIFO 1 (root or CAP_SYS_NICE or RLIMIT_RTPRIO >= 1).
+bool MayUseFifo() {
+  ParkedThread t;
+  sched_param p{};
+  p.sched_priority = 1;
+  return pthread_setschedparam(t.handle(), SCHED_FIFO, &p) == 0;
+}
+
+TEST(ThreadScheduling, Validate_Default_Ok) {
+  EXPECT_TRUE(ValidateThreadScheduling({}, "drive 'x1'.linudp").ok());
+  EXPECT_TRUE(ValidateThreadScheduling({99, {0, 3}}, "drive 'x1'.linudp").ok());
+}
+
+TEST(ThreadScheduling, Validate_PriorityOutOfRange_NamesKey) {
+  for (int priority : {-1, 100}) {
+    const absl::Status s = ValidateThreadScheduling({priority, {}}, "drive 'x1'.linudp");
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(s.message().find("drive 'x1'.linudp.io_priority"), std::string::npos) << s;
+  }
+}
+
+TEST(ThreadScheduling, Validate_BadCpus_NamesIndex) {
+  const absl::Status negative = ValidateThreadScheduling({0, {0, -1}}, "w");
+  EXPECT_EQ(negative.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(negative.message().find("w.io_cpus[1]"), std::string::npos) << negative;
+  const absl::Status twice = ValidateThreadScheduling({0, {1, 1}}, "w");
+  EXPECT_EQ(twice.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(twice.message().find("given twice"), std::string::npos) << twice;
+  EXPECT_EQ(ValidateThreadScheduling({0, {1024}}, "w").code(), absl::StatusCode::kInvalidArgument);
+}
+
+TEST(ThreadScheduling, ToString_NamesConfigKeys) {
+  EXPECT_EQ((ThreadScheduling{50, {1, 3}}).ToString(), "io_priority=50 io_cpus=[1,3]");
+}
+
+TEST(ThreadScheduling, Apply_Default_LeavesThreadAlone) {
+  ParkedThread t;
+  int policy_before = -1;
+  sched_param before{};
+  ASSERT_EQ(pthread_getschedparam(t.handle(), &policy_before, &before), 0);
+  EXPECT_TRUE(ApplyThreadScheduling(t.handle(), {}, "w").ok());
+  int policy = -1;
+  sched_param after{};
+  ASSERT_EQ(pthread_getschedparam(t.handle(), &policy, &after), 0);
+  EXPECT_EQ(policy, policy_before);
+}
+
+TEST(ThreadScheduling, Apply_Fifo_ThreadRunsFifo) {
+  if (!MayUseFifo()) GTEST_SKIP() << "no CAP_SYS_NICE / RLIMIT_RTPRIO here";
+  ParkedThread t;
+  ASSERT_TRUE(ApplyThreadScheduling(t.handle(), {7, {}}, "w").ok());
+  int policy = -1;
+  sched_param p{};
+  ASSERT_EQ(pthread_getschedparam(t.handle(), &policy, &p), 0);
+  EXPECT_EQ(policy, SCHED_FIFO);
+  EXPECT_EQ(p.sched_priority, 7);
+}
+
+TEST(ThreadScheduling, Apply_Cpus_ThreadPinned) {
+  const int cpu = sched_getcpu();
+  ASSERT_GE(cpu, 0);
+  ParkedThread t;
+  ASSERT_TRUE(ApplyThreadScheduling(t.handle(), {0, {cpu}}, "w").ok());
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  ASSERT_EQ(pthread_getaffinity_np(t.handle(), sizeof(set), &set), 0);
+  EXPECT_EQ(CPU_COUNT(&set), 1);
+  EXPECT_TRUE(CPU_ISSET(cpu, &set));
+}
+
+TEST(ThreadScheduling, Apply_NoSuchCpu_InvalidArgument) {
+  ParkedThread t;
+  const absl::Status s = ApplyThreadScheduling(t.handle(), {0, {1023}}, "drive 'x1'.linudp");
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("drive 'x1'.linudp.io_cpus"), std::string::npos) << s;
+}
+
+// Without CAP_SYS_NICE and with RLIMIT_RTPRIO 0 (an unprivileged container) the request is
+// refused with PermissionDenied and the message says how to grant it. Run in a child process
+// that drops the capability, so that the test means the same as root and as a normal user.
+TEST(ThreadSchedulingDeathTest, Apply_FifoWithoutCapSysNice_PermissionDeniedWithHint) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(
+      {
+        const rlimit none{0, 0};
+        ::setrlimit(RLIMIT_RTPRIO, &none);
+        __user_cap_header_struct header{_LINUX_CAPABILITY_VERSION_3, 0};
+        __user_cap_data_struct data[2]{};
+        if (::syscall(SYS_capget, &header, data) != 0) ::_exit(2);
+        data[CAP_SYS_NICE / 32].effective &= ~(1u << (CAP_SYS_NICE % 32));
+        data[CAP_SYS_NICE / 32].permitted &= ~(1u << (CAP_SYS_NICE % 32));
+        if (::syscall(SYS_capset, &header, data) != 0) ::_exit(3);
+        ParkedThread t;
+        const absl::Status s = ApplyThreadScheduling(t.handle(), {10, {}}, "drive 'x1'.linudp");
+        const bool hint = s.message().find("CAP_SYS_NICE") != std::string::npos &&
+                          s.message().find("drive 'x1'.linudp.io_priority") != std::string::npos;
+        ::_exit(s.code() == absl::StatusCode::kPermissionDenied && hint ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+}  // namespace
+}  // namespace drivegw::transport
