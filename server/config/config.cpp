@@ -289,9 +289,9 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
   }
   std::map<std::string, size_t> names;                         // name -> index
   std::map<std::pair<std::string, uint16_t>, size_t> targets;  // linudp host:port -> index
+  std::map<std::pair<std::string, uint8_t>, size_t> mac_ids;   // (CAN bus, MAC ID) -> index
   // linudp bind_host:master_port -> (first index, its linudp): one shared I/O thread (1311).
   std::map<std::pair<std::string, uint16_t>, std::pair<size_t, LinUdpConfig>> master_sockets;
-  std::map<std::pair<std::string, uint8_t>, size_t> mac_ids;  // (CAN bus, MAC ID) -> index
   internal::TrinamicControllers trinamic(errors);
   internal::CanOpenNodes canopen_nodes(errors);
   internal::CanBusProtocols bus_protocols(errors);
@@ -450,10 +450,9 @@ absl::StatusOr<GatewayConfig> ParseDocument(const YAML::Node& doc,
                                             std::span<const std::string_view> families) {
   GatewayConfig cfg;
   Errors errors;
-  const Section root(
-      doc, "",
-      {"listen", "data_dir", "drives", "tls", "audit", "shutdown_timeout_s", "auth", "insecure"},
-      errors);
+  const Section root(doc, "", {"listen", "data_dir", "drives", "tls", "audit", "shutdown_timeout_s",
+                                   "auth", "insecure"},
+                     errors);
   if (!doc.IsNull() && !doc.IsMap()) return errors.ToStatus();
   ParseListen(root, cfg.listen);
   internal::ParseAuth(root, cfg.auth);
