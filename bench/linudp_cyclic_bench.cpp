@@ -74,7 +74,9 @@ constexpr auto kCycle = 2ms;
 constexpr auto kReplyTimeout = 50ms;   // A-10 default
 constexpr int kMaxDrivesPerSim = 256;  // drivegw-sim linmot --count limit
 constexpr uint32_t kLoopback = 0x7F000001;
-constexpr int kRtPriority = 10;  // `rt`: SCHED_FIFO priority of both sides and the simulators
+constexpr int kRtPriority = 10;
+// The session's threshold for a stall of its I/O thread (session.cpp, decision 1312).
+constexpr auto kStallThreshold = 500us;  // `rt`: SCHED_FIFO priority of both sides and the simulators
 
 double CpuSeconds() {
   rusage u{};
@@ -222,6 +224,7 @@ struct Window {
   uint64_t timeouts = 0;
   uint64_t cycles = 0;
   uint64_t late = 0;
+  uint64_t late_stalled = 0;  // late periods overlapping a stall of the loop's own thread
   double cpu_s = 0;      // this process
   double sim_cpu_s = 0;  // the simulator processes
   double load = 0;
@@ -238,6 +241,11 @@ struct Window {
   }
   double late_pct() const {
     return cycles ? 100.0 * static_cast<double>(late) / static_cast<double>(cycles) : 100.0;
+  }
+  // Late periods while the loop's thread was running: what the exchange itself missed.
+  double late_unstalled_pct() const {
+    return cycles ? 100.0 * static_cast<double>(late - late_stalled) / static_cast<double>(cycles)
+                  : 100.0;
   }
   double cpu_us_per_exchange() const {
     return exchanges ? cpu_s * 1e6 / static_cast<double>(exchanges) : 0;
@@ -335,7 +343,7 @@ drivegw::DriveConfig DriveConfigFor(int i, const SimFarm& farm, int io_priority)
 }
 
 struct Totals {
-  uint64_t replies = 0, sent = 0, timeouts = 0, cycles = 0, late = 0;
+  uint64_t replies = 0, sent = 0, timeouts = 0, cycles = 0, late = 0, late_stalled = 0;
 };
 
 Totals Sum(const std::vector<std::unique_ptr<drivegw::Drive>>& drives) {
@@ -348,6 +356,7 @@ Totals Sum(const std::vector<std::unique_ptr<drivegw::Drive>>& drives) {
     t.timeouts += c->timeouts;
     t.cycles += c->cycles;
     t.late += c->late_cycles;
+    t.late_stalled += c->late_cycles_stalled;
   }
   return t;
 }
@@ -399,6 +408,7 @@ std::optional<Window> MeasureGateway(int n, const SimFarm& farm, double seconds,
   w.timeouts = b.timeouts - a.timeouts;
   w.cycles = b.cycles - a.cycles;
   w.late = b.late - a.late;
+  w.late_stalled = b.late_stalled - a.late_stalled;
   w.cpu_s = cpu_b - cpu_a;
   w.sim_cpu_s = sim_b - sim_a;
   w.load = LoadAverage();
@@ -445,7 +455,10 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
   std::vector<State> st(static_cast<size_t>(n));
   Window w;
   bool measuring = false;
-  uint64_t sent = 0, replies = 0, timeouts = 0, cycles = 0, late = 0;
+  uint64_t sent = 0, replies = 0, timeouts = 0, cycles = 0, late = 0, late_stalled = 0;
+  // The last stall of this thread, detected as the session detects its own (decision 1312): a
+  // wake-up more than kStallThreshold after the wait's end.
+  SteadyClock::time_point stall_from{}, stall_until{};
   auto send = [&](int i, SteadyClock::time_point now) {
     ::sendto(fd, request.data(), request.size(), 0, reinterpret_cast<const sockaddr*>(&to[i]),
              sizeof(sockaddr_in));
@@ -469,9 +482,18 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
   auto roll = [&](SteadyClock::time_point now) {
     if (now < period + kCycle) return;
     const auto k = static_cast<uint64_t>((now - period) / kCycle);
+    // Ended periods j = 0 .. k-1 overlapping the last stall (the same rule as the session).
+    uint64_t first = 1, last = 0;
+    if (stall_until > stall_from && stall_until > period) {
+      first = static_cast<uint64_t>(std::max<SteadyClock::rep>(0, (stall_from - period) / kCycle));
+      last = std::min<uint64_t>(
+          k - 1, static_cast<uint64_t>((stall_until - period - SteadyClock::duration(1)) / kCycle));
+    }
     for (State& s : st) {
       cycles += k;
       late += k - (s.met ? 1 : 0);
+      const uint64_t from = s.met ? std::max<uint64_t>(first, 1) : first;
+      if (last >= from) late_stalled += last - from + 1;
       s.met = false;
       s.sent_in_period = false;
       if (s.outstanding && now >= s.sent_at + kReplyTimeout) {
@@ -490,7 +512,7 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
     SteadyClock::time_point now = SteadyClock::now();
     if (!measuring && now >= warm_end) {
       measuring = true;
-      sent = replies = timeouts = cycles = late = 0;
+      sent = replies = timeouts = cycles = late = late_stalled = 0;
       cpu_a = CpuSeconds();
       sim_a = farm.CpuSeconds();
       steal_a = StealMs();
@@ -502,8 +524,13 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
     const timespec ts{0,
                       std::max<long>(0, static_cast<long>(std::chrono::nanoseconds(wait).count()))};
     pollfd p{fd, POLLIN, 0};
+    const auto due = now + std::chrono::nanoseconds(ts.tv_nsec);
     ::ppoll(&p, 1, &ts, nullptr);
     now = SteadyClock::now();
+    if (now - due > kStallThreshold) {
+      stall_from = due;
+      stall_until = now;
+    }
     roll(now);
     for (;;) {
       sockaddr_in from{};
@@ -527,6 +554,7 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
   w.timeouts = timeouts;
   w.cycles = cycles;
   w.late = late;
+  w.late_stalled = late_stalled;
   w.load = LoadAverage();
   const double steal_b = StealMs();
   prober.join();
@@ -548,6 +576,8 @@ nlohmann::json WindowJson(const Window& w) {
           {"cycles", w.cycles},
           {"late_cycles", w.late},
           {"late_pct", w.late_pct()},
+          {"late_cycles_stalled", w.late_stalled},
+          {"late_unstalled_pct", w.late_unstalled_pct()},
           {"cpu_us_per_exchange", w.cpu_us_per_exchange()},
           {"cpu_pct_of_core", 100 * w.cpu_s / w.seconds},
           {"sim_cpu_us_per_exchange", w.sim_us_per_exchange()},
@@ -596,11 +626,14 @@ int main(int argc, char** argv) {
   std::printf("host: %llu wake-ups on a 2 ms grid, %.3f %% late by > 1 ms, max %.0f us\n",
               static_cast<unsigned long long>(host.wakeups), host.late_pct(), host.max_late_us);
   std::fflush(stdout);
+  // run%: late periods while the loop's own thread ran (not stalled, decision 1312).
   // host% / stall / steal: the host probe alongside each window (wake-ups > 1 ms late, their
   // summed lateness in ms, the hypervisor's steal time in ms).
-  std::printf("%5s | %10s %8s %9s %7s %7s %6s %6s %6s | %10s %8s %9s %7s %6s %6s %6s | %6s\n", "N",
-              "gw exch/s", "gw late%", "gw us/tg", "gw cpu%", "sim%", "host%", "stall", "steal",
-              "bare ex/s", "bare lt%", "bare us/tg", "sim%", "host%", "stall", "steal", "ratio");
+  std::printf(
+      "%5s | %10s %8s %7s %9s %7s %7s %6s %6s %6s | %10s %8s %7s %9s %7s %6s %6s %6s | %6s\n",
+      "N", "gw exch/s", "gw late%", "run%", "gw us/tg", "gw cpu%", "sim%", "host%", "stall",
+      "steal", "bare ex/s", "bare lt%", "run%", "bare us/tg", "sim%", "host%", "stall", "steal",
+      "ratio");
   std::fflush(stdout);
   std::vector<Row> rows;
   bool failed = false;
@@ -620,14 +653,15 @@ int main(int argc, char** argv) {
     }
     const double ratio = gw->cpu_us_per_exchange() / bare->cpu_us_per_exchange();
     std::printf(
-        "%5d | %10.0f %8.3f %9.2f %7.1f %7.1f %6.3f %6.1f %6.0f | %10.0f %8.3f %9.2f %7.1f %6.3f "
-        "%6.1f %6.0f | %6.2f\n",
+        "%5d | %10.0f %8.3f %7.3f %9.2f %7.1f %7.1f %6.3f %6.1f %6.0f | %10.0f %8.3f %7.3f %9.2f "
+        "%7.1f %6.3f %6.1f %6.0f | %6.2f\n",
         n, static_cast<double>(gw->exchanges) / gw->seconds, gw->late_pct(),
-        gw->cpu_us_per_exchange(), 100 * gw->cpu_s / gw->seconds, 100 * gw->sim_cpu_s / gw->seconds,
-        gw->host_late_pct(), gw->host_stall_ms, gw->steal_ms,
+        gw->late_unstalled_pct(), gw->cpu_us_per_exchange(), 100 * gw->cpu_s / gw->seconds,
+        100 * gw->sim_cpu_s / gw->seconds, gw->host_late_pct(), gw->host_stall_ms, gw->steal_ms,
         static_cast<double>(bare->exchanges) / bare->seconds, bare->late_pct(),
-        bare->cpu_us_per_exchange(), 100 * bare->sim_cpu_s / bare->seconds, bare->host_late_pct(),
-        bare->host_stall_ms, bare->steal_ms, ratio);
+        bare->late_unstalled_pct(), bare->cpu_us_per_exchange(),
+        100 * bare->sim_cpu_s / bare->seconds, bare->host_late_pct(), bare->host_stall_ms,
+        bare->steal_ms, ratio);
     std::fflush(stdout);
     rows.push_back({n, *gw, *bare});
   }

@@ -21,6 +21,10 @@ constexpr Duration kIdleWait = std::chrono::milliseconds(200);
 // few times per cycle and sends each group with one sendmmsg instead of waking once per drive
 // (issue 10, P2). The first telegram still leaves at once (Register).
 constexpr Duration kGridTick = std::chrono::microseconds(250);
+// A wake-up of the I/O thread later than this after it was due is a stall of the thread (the
+// host held it off the CPU), counted apart from the exchange's own late periods (decision 1312):
+// a quarter of the 2 ms cycle of issue 10 (P2), well above the tens of µs of a normal wake-up.
+constexpr Duration kStallThreshold = std::chrono::microseconds(500);
 // Datagrams taken per recvmmsg.
 constexpr size_t kReceiveBatch = transport::UdpSocket::kMaxBatch;
 
@@ -36,6 +40,7 @@ void Add(ExchangeCounters& into, const ExchangeCounters& c) {
   into.header_mismatch += c.header_mismatch;
   into.cycles += c.cycles;
   into.late_cycles += c.late_cycles;
+  into.late_cycles_stalled += c.late_cycles_stalled;
 }
 
 }  // namespace
@@ -228,6 +233,16 @@ void Session::RollPeriodsLocked(Peer& p, TimePoint now) {
   const auto ended = static_cast<uint64_t>((now - p.period_start) / cycle);
   p.counters.cycles += ended;
   p.counters.late_cycles += ended - (p.period_met ? 1 : 0);
+  if (stall_until_ > stall_from_ && stall_until_ > p.period_start) {
+    // Ended periods j = 0 .. ended-1 span [start + j*cycle, start + (j+1)*cycle); the late ones
+    // (all but a met first one) that overlap the last stall are counted as stalled.
+    const auto first = static_cast<uint64_t>(
+        std::max<Duration::rep>(0, (stall_from_ - p.period_start) / cycle));
+    const auto last = std::min<uint64_t>(
+        ended - 1, static_cast<uint64_t>((stall_until_ - p.period_start - Duration(1)) / cycle));
+    const uint64_t from = p.period_met ? std::max<uint64_t>(first, 1) : first;
+    if (last >= from) p.counters.late_cycles_stalled += last - from + 1;
+  }
   p.period_start += static_cast<int64_t>(ended) * cycle;
   p.period_met = false;
 }
@@ -406,19 +421,28 @@ void Session::Run() {
     FireTimersLocked(now);
     FlushLocked();
     Duration wait = kIdleWait;
+    const TimePoint wait_from = clock_.Now();
     if (!timers_.empty())
-      wait = std::clamp(timers_.front().due - clock_.Now(), Duration::zero(), kIdleWait);
+      wait = std::clamp(timers_.front().due - wait_from, Duration::zero(), kIdleWait);
     lock.unlock();
     absl::StatusOr<size_t> got = socket_.ReceiveBatch(receive_slots_, wait);
     lock.lock();
     if (stopping_) break;
+    // The wait ends by wait_from + wait at the latest (earlier for a datagram or a wake-up), so
+    // waking later than that is a lower bound of how long the thread was held off the CPU.
+    now = clock_.Now();
+    if (const TimePoint due = wait_from + wait; now - due > kStallThreshold) {
+      ++counters_.io_stalls;
+      counters_.io_stalled_ms += std::chrono::duration<double, std::milli>(now - due).count();
+      stall_from_ = due;
+      stall_until_ = now;
+    }
     if (!got.ok()) {
       if (absl::IsCancelled(got.status())) break;  // Shutdown
       log::Warn("linudp_receive_error",
                 log::Fields().Add("local", local_.ToString()).Add("error", got.status().message()));
       continue;
     }
-    now = clock_.Now();
     for (size_t i = 0; i < *got; ++i) HandleDatagramLocked(receive_slots_[i], now);
     FlushLocked();
   }

@@ -40,6 +40,10 @@ struct ExchangeCounters {
   // are what issue 10 (P2) counts against the cycle time.
   uint64_t cycles = 0;
   uint64_t late_cycles = 0;
+  // Late periods that overlap a stall of the session's own I/O thread (SessionCounters::
+  // io_stalls): the thread was not running, so the cause is the host's scheduling (priority,
+  // other load, a hypervisor), not the network or the drive (decision 1312).
+  uint64_t late_cycles_stalled = 0;
   std::optional<double> last_round_trip_ms;  // per peer only (not summed)
 };
 
@@ -47,6 +51,10 @@ struct SessionCounters {
   ExchangeCounters total;       // sum over every peer ever registered
   uint64_t unknown_source = 0;  // datagrams from an endpoint no peer is registered for
   uint64_t receive_errors = 0;  // socket errors while receiving (the loop goes on)
+  // Wake-ups of the I/O thread more than kStallThreshold after the moment it asked to wake (or
+  // a datagram arrived): the thread was held off the CPU (decision 1312).
+  uint64_t io_stalls = 0;
+  double io_stalled_ms = 0;  // their summed lateness
 };
 
 enum class LinkState { kUnknown, kOnline, kOffline };
@@ -177,8 +185,9 @@ class Session {
   void ArmLocked(Peer& p, TimePoint now);
   void HandleDatagramLocked(const transport::DatagramSlot& d, TimePoint now);
   void SetLinkLocked(Peer& p, LinkState to);
-  // Closes the cycle periods of `p` that ended by `now` (ExchangeCounters::cycles/late_cycles).
-  static void RollPeriodsLocked(Peer& p, TimePoint now);
+  // Closes the cycle periods of `p` that ended by `now` (ExchangeCounters::cycles/late_cycles,
+  // late_cycles_stalled against the last I/O stall).
+  void RollPeriodsLocked(Peer& p, TimePoint now);
 
   const Clock& clock_;
   transport::UdpSocket socket_;
@@ -192,6 +201,10 @@ class Session {
   std::unordered_map<transport::Endpoint, Peer*> by_remote_;
   std::vector<Timer> timers_;  // min-heap on due, guarded by mu_
   SessionCounters counters_;
+  // The last stall of the I/O thread (guarded by mu_): from the moment it should have woken to
+  // the moment it did. Empty (from == until) before the first.
+  TimePoint stall_from_{};
+  TimePoint stall_until_{};
   // I/O thread buffers, reused every turn (guarded by mu_; the cycle allocates nothing).
   std::vector<Outgoing> outgoing_;
   std::vector<transport::OutgoingDatagram> outgoing_views_;
