@@ -22,10 +22,17 @@
 // Run: build/bench/linudp_cyclic_bench [seconds per N = 5] [N list = 25,50,100,200,300,400] [rt]
 // `rt` runs this process and the simulators under SCHED_FIFO (priority 10, inherited by every
 // thread and by the fork/exec'ed simulators), as [RC] runs its 1.1 ms LinUDP loop
-// (linmot-linudp.md 6.5): on this shared 2-core VM, with other builds at load 8-10, both the
-// gateway and the bare loop otherwise wait for a CPU longer than the 2 ms cycle. Gateway and
-// baseline get the same priority; the kernel's RT throttling (sched_rt_runtime_us) still
-// leaves 5 % to everyone else.
+// (linmot-linudp.md 6.5), and gives the gateway's drives linudp.io_priority 10 (decision 1311):
+// on this shared 2-core VM, with other builds at load 8-10, both the gateway and the bare loop
+// otherwise wait for a CPU longer than the 2 ms cycle. Gateway and baseline get the same
+// priority; the kernel's RT throttling (sched_rt_runtime_us) still leaves 5 % to everyone else.
+// The run of record uses `rt` (bench/list.txt, decision 1311).
+//
+// Why a period was late (decision 1312), per N and side: "run%" are the late periods while the
+// loop's own thread was running (not stalled > 500 us past its wake-up time; the session counts
+// late_cycles_stalled, the bare loop the same way here), and a host probe (a thread that only
+// wakes on the 2 ms grid, same priority) runs alongside every window with the hypervisor's steal
+// time, so each row shows what the host alone lost at that moment.
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>

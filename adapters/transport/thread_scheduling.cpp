@@ -17,7 +17,7 @@ std::string ThreadScheduling::ToString() const {
   return absl::StrCat("io_priority=", fifo_priority, " io_cpus=[", absl::StrJoin(cpus, ","), "]");
 }
 
-absl::Status ValidateThreadScheduling(const ThreadScheduling& s, std::string_view where) {
+absl::Status ValidateThreadScheduling(const ThreadScheduling& s, absl::string_view where) {
   if (s.fifo_priority < 0 || s.fifo_priority > ThreadScheduling::kMaxFifoPriority) {
     return absl::InvalidArgumentError(
         absl::StrCat(where, ".io_priority: ", s.fifo_priority, " is outside 0..",
@@ -39,7 +39,7 @@ absl::Status ValidateThreadScheduling(const ThreadScheduling& s, std::string_vie
 }
 
 absl::Status ApplyThreadScheduling(pthread_t thread, const ThreadScheduling& s,
-                                   std::string_view where) {
+                                   absl::string_view where) {
   if (absl::Status v = ValidateThreadScheduling(s, where); !v.ok()) return v;
   if (!s.cpus.empty()) {
     cpu_set_t set;

@@ -5,10 +5,10 @@
 #include <pthread.h>
 
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/strings/string_view.h"
 
 namespace drivegw::transport {
 
@@ -28,14 +28,14 @@ struct ThreadScheduling {
 
 // InvalidArgument naming `where` (e.g. "drive 'x1'.linudp") and the key for a priority outside
 // 0..99 or a CPU outside 0..1023 or given twice.
-absl::Status ValidateThreadScheduling(const ThreadScheduling& s, std::string_view where);
+absl::Status ValidateThreadScheduling(const ThreadScheduling& s, absl::string_view where);
 
 // Applies `s` to the running thread `thread`. Never falls back silently: PermissionDenied when
 // the process may not use SCHED_FIFO (no CAP_SYS_NICE and RLIMIT_RTPRIO below the priority; the
 // message says how to grant it in Docker and Kubernetes), InvalidArgument when no CPU of `cpus`
 // is online. A default `s` is OK without a system call.
 absl::Status ApplyThreadScheduling(pthread_t thread, const ThreadScheduling& s,
-                                   std::string_view where);
+                                   absl::string_view where);
 
 // The calling thread's timer slack to 1 ns (PR_SET_TIMERSLACK, prctl(2)): a thread at the normal
 // policy otherwise lets the kernel defer each timed wake-up by up to 50 us to batch it with

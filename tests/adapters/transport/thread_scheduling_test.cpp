@@ -119,28 +119,29 @@ TEST(ThreadScheduling, Apply_NoSuchCpu_InvalidArgument) {
   EXPECT_NE(s.message().find("drive 'x1'.linudp.io_cpus"), std::string::npos) << s;
 }
 
-// Without CAP_SYS_NICE and with RLIMIT_RTPRIO 0 (an unprivileged container) the request is
-// refused with PermissionDenied and the message says how to grant it. Run in a child process
-// that drops the capability, so that the test means the same as root and as a normal user.
+// In a child process: drops CAP_SYS_NICE and RLIMIT_RTPRIO (an unprivileged container), asks
+// for SCHED_FIFO and returns 0 when that was refused with PermissionDenied naming key and fix.
+int RefusedWithoutCapSysNice() {
+  const rlimit none{0, 0};
+  ::setrlimit(RLIMIT_RTPRIO, &none);
+  __user_cap_header_struct header{_LINUX_CAPABILITY_VERSION_3, 0};
+  __user_cap_data_struct data[2]{};
+  if (::syscall(SYS_capget, &header, data) != 0) return 2;
+  data[CAP_SYS_NICE / 32].effective &= ~(1u << (CAP_SYS_NICE % 32));
+  data[CAP_SYS_NICE / 32].permitted &= ~(1u << (CAP_SYS_NICE % 32));
+  if (::syscall(SYS_capset, &header, data) != 0) return 3;
+  ParkedThread t;
+  const absl::Status s = ApplyThreadScheduling(t.handle(), {10, {}}, "drive 'x1'.linudp");
+  const bool hint = s.message().find("CAP_SYS_NICE") != std::string::npos &&
+                    s.message().find("drive 'x1'.linudp.io_priority") != std::string::npos;
+  return s.code() == absl::StatusCode::kPermissionDenied && hint ? 0 : 1;
+}
+
+// The refusal is an error naming the fix, the same for root and a normal user (the child drops
+// the capability first).
 TEST(ThreadSchedulingDeathTest, Apply_FifoWithoutCapSysNice_PermissionDeniedWithHint) {
   GTEST_FLAG_SET(death_test_style, "threadsafe");
-  EXPECT_EXIT(
-      {
-        const rlimit none{0, 0};
-        ::setrlimit(RLIMIT_RTPRIO, &none);
-        __user_cap_header_struct header{_LINUX_CAPABILITY_VERSION_3, 0};
-        __user_cap_data_struct data[2]{};
-        if (::syscall(SYS_capget, &header, data) != 0) ::_exit(2);
-        data[CAP_SYS_NICE / 32].effective &= ~(1u << (CAP_SYS_NICE % 32));
-        data[CAP_SYS_NICE / 32].permitted &= ~(1u << (CAP_SYS_NICE % 32));
-        if (::syscall(SYS_capset, &header, data) != 0) ::_exit(3);
-        ParkedThread t;
-        const absl::Status s = ApplyThreadScheduling(t.handle(), {10, {}}, "drive 'x1'.linudp");
-        const bool hint = s.message().find("CAP_SYS_NICE") != std::string::npos &&
-                          s.message().find("drive 'x1'.linudp.io_priority") != std::string::npos;
-        ::_exit(s.code() == absl::StatusCode::kPermissionDenied && hint ? 0 : 1);
-      },
-      ::testing::ExitedWithCode(0), "");
+  EXPECT_EXIT(::_exit(RefusedWithoutCapSysNice()), ::testing::ExitedWithCode(0), "");
 }
 
 }  // namespace
