@@ -65,6 +65,7 @@
 #include "adapters/linmot/linudp/codec.h"
 #include "adapters/linmot/linudp/drive.h"
 #include "adapters/linmot/linudp/factory.h"
+#include "adapters/transport/thread_scheduling.h"
 #include "bench/report.h"
 
 #ifndef DGW_SIM_BIN
@@ -81,9 +82,9 @@ constexpr auto kCycle = 2ms;
 constexpr auto kReplyTimeout = 50ms;   // A-10 default
 constexpr int kMaxDrivesPerSim = 256;  // drivegw-sim linmot --count limit
 constexpr uint32_t kLoopback = 0x7F000001;
-constexpr int kRtPriority = 10;
+constexpr int kRtPriority = 10;  // `rt`: SCHED_FIFO priority of both sides and the simulators
 // The session's threshold for a stall of its I/O thread (session.cpp, decision 1312).
-constexpr auto kStallThreshold = 500us;  // `rt`: SCHED_FIFO priority of both sides and the simulators
+constexpr auto kStallThreshold = 500us;
 
 double CpuSeconds() {
   rusage u{};
@@ -232,8 +233,8 @@ struct Window {
   uint64_t cycles = 0;
   uint64_t late = 0;
   uint64_t late_stalled = 0;  // late periods overlapping a stall of the loop's own thread
-  double cpu_s = 0;      // this process
-  double sim_cpu_s = 0;  // the simulator processes
+  double cpu_s = 0;           // this process
+  double sim_cpu_s = 0;       // the simulator processes
   double load = 0;
   // The host during this very window (HostProbe, same priority, running alongside): what a
   // loop that does nothing but wake on the 2 ms grid lost, and the hypervisor's steal time.
@@ -464,8 +465,10 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
   bool measuring = false;
   uint64_t sent = 0, replies = 0, timeouts = 0, cycles = 0, late = 0, late_stalled = 0;
   // The last stall of this thread, detected as the session detects its own (decision 1312): a
-  // wake-up more than kStallThreshold after the wait's end.
+  // wake-up more than kStallThreshold after the wait's end, or a turn that long off the CPU.
   SteadyClock::time_point stall_from{}, stall_until{};
+  SteadyClock::time_point woke = SteadyClock::now();
+  auto cpu_at_wait = drivegw::transport::ThreadCpuTime();
   auto send = [&](int i, SteadyClock::time_point now) {
     ::sendto(fd, request.data(), request.size(), 0, reinterpret_cast<const sockaddr*>(&to[i]),
              sizeof(sockaddr_in));
@@ -532,8 +535,17 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
                       std::max<long>(0, static_cast<long>(std::chrono::nanoseconds(wait).count()))};
     pollfd p{fd, POLLIN, 0};
     const auto due = now + std::chrono::nanoseconds(ts.tv_nsec);
+    // A turn whose wall time exceeds this thread's CPU time by the threshold was a stall too.
+    const auto wait_from = SteadyClock::now();
+    const auto cpu_now = drivegw::transport::ThreadCpuTime();
+    if ((wait_from - woke) - (cpu_now - cpu_at_wait) > kStallThreshold) {
+      stall_from = woke;
+      stall_until = wait_from;
+    }
+    cpu_at_wait = cpu_now;
     ::ppoll(&p, 1, &ts, nullptr);
     now = SteadyClock::now();
+    woke = now;
     if (now - due > kStallThreshold) {
       stall_from = due;
       stall_until = now;
@@ -637,10 +649,9 @@ int main(int argc, char** argv) {
   // host% / stall / steal: the host probe alongside each window (wake-ups > 1 ms late, their
   // summed lateness in ms, the hypervisor's steal time in ms).
   std::printf(
-      "%5s | %10s %8s %7s %9s %7s %7s %6s %6s %6s | %10s %8s %7s %9s %7s %6s %6s %6s | %6s\n",
-      "N", "gw exch/s", "gw late%", "run%", "gw us/tg", "gw cpu%", "sim%", "host%", "stall",
-      "steal", "bare ex/s", "bare lt%", "run%", "bare us/tg", "sim%", "host%", "stall", "steal",
-      "ratio");
+      "%5s | %10s %8s %7s %9s %7s %7s %6s %6s %6s | %10s %8s %7s %9s %7s %6s %6s %6s | %6s\n", "N",
+      "gw exch/s", "gw late%", "run%", "gw us/tg", "gw cpu%", "sim%", "host%", "stall", "steal",
+      "bare ex/s", "bare lt%", "run%", "bare us/tg", "sim%", "host%", "stall", "steal", "ratio");
   std::fflush(stdout);
   std::vector<Row> rows;
   bool failed = false;

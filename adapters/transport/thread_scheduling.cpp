@@ -3,6 +3,7 @@
 
 #include <sched.h>
 #include <sys/prctl.h>
+#include <time.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -74,6 +75,12 @@ absl::Status ApplyThreadScheduling(pthread_t thread, const ThreadScheduling& s,
 void MinimiseTimerSlack() {
   // prctl(2): a value of 0 would reset to the default slack; 1 ns is the smallest real setting.
   ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+}
+
+std::chrono::nanoseconds ThreadCpuTime() {
+  timespec t{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return std::chrono::seconds(t.tv_sec) + std::chrono::nanoseconds(t.tv_nsec);
 }
 
 }  // namespace drivegw::transport

@@ -4,6 +4,7 @@
 
 #include <pthread.h>
 
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -41,5 +42,10 @@ absl::Status ApplyThreadScheduling(pthread_t thread, const ThreadScheduling& s,
 // policy otherwise lets the kernel defer each timed wake-up by up to 50 us to batch it with
 // others. SCHED_FIFO threads get no slack anyway. Best effort: prctl cannot fail for this value.
 void MinimiseTimerSlack();
+
+// CPU time the calling thread has used (CLOCK_THREAD_CPUTIME_ID). Under KVM with steal-time
+// accounting it does not advance while the hypervisor runs something else, so wall time minus
+// this over a busy stretch is the time the thread was held off the CPU.
+std::chrono::nanoseconds ThreadCpuTime();
 
 }  // namespace drivegw::transport

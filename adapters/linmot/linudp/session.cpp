@@ -236,8 +236,8 @@ void Session::RollPeriodsLocked(Peer& p, TimePoint now) {
   if (stall_until_ > stall_from_ && stall_until_ > p.period_start) {
     // Ended periods j = 0 .. ended-1 span [start + j*cycle, start + (j+1)*cycle); the late ones
     // (all but a met first one) that overlap the last stall are counted as stalled.
-    const auto first = static_cast<uint64_t>(
-        std::max<Duration::rep>(0, (stall_from_ - p.period_start) / cycle));
+    const auto first =
+        static_cast<uint64_t>(std::max<Duration::rep>(0, (stall_from_ - p.period_start) / cycle));
     const auto last = std::min<uint64_t>(
         ended - 1, static_cast<uint64_t>((stall_until_ - p.period_start - Duration(1)) / cycle));
     const uint64_t from = p.period_met ? std::max<uint64_t>(first, 1) : first;
@@ -410,11 +410,20 @@ void Session::HandleDatagramLocked(const transport::DatagramSlot& d, TimePoint n
   ArmLocked(p, now);
 }
 
+void Session::NoteStallLocked(TimePoint from, TimePoint until) {
+  ++counters_.io_stalls;
+  counters_.io_stalled_ms += std::chrono::duration<double, std::milli>(until - from).count();
+  stall_from_ = from;
+  stall_until_ = until;
+}
+
 void Session::Run() {
   // Every wait of this loop is a timed ppoll to a grid tick; at the normal policy the default
   // 50 us slack would let the kernel defer each of them (decision 1311).
   transport::MinimiseTimerSlack();
   std::unique_lock lock(mu_);
+  TimePoint woke = clock_.Now();
+  Duration cpu_at_wait = transport::ThreadCpuTime();
   while (!stopping_) {
     TimePoint now = clock_.Now();
     TakeUrgentLocked(now);
@@ -422,6 +431,14 @@ void Session::Run() {
     FlushLocked();
     Duration wait = kIdleWait;
     const TimePoint wait_from = clock_.Now();
+    // Decision 1312: the turn since the last wake-up took wall time the thread did not spend on
+    // a CPU (a hypervisor or a higher priority held it off; the thread's own work is CPU time).
+    const Duration cpu_now = transport::ThreadCpuTime();
+    if (const Duration off_cpu = (wait_from - woke) - (cpu_now - cpu_at_wait);
+        off_cpu > kStallThreshold) {
+      NoteStallLocked(woke, wait_from);
+    }
+    cpu_at_wait = cpu_now;
     if (!timers_.empty())
       wait = std::clamp(timers_.front().due - wait_from, Duration::zero(), kIdleWait);
     lock.unlock();
@@ -431,11 +448,9 @@ void Session::Run() {
     // The wait ends by wait_from + wait at the latest (earlier for a datagram or a wake-up), so
     // waking later than that is a lower bound of how long the thread was held off the CPU.
     now = clock_.Now();
+    woke = now;
     if (const TimePoint due = wait_from + wait; now - due > kStallThreshold) {
-      ++counters_.io_stalls;
-      counters_.io_stalled_ms += std::chrono::duration<double, std::milli>(now - due).count();
-      stall_from_ = due;
-      stall_until_ = now;
+      NoteStallLocked(due, now);
     }
     if (!got.ok()) {
       if (absl::IsCancelled(got.status())) break;  // Shutdown

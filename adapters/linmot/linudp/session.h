@@ -51,10 +51,11 @@ struct SessionCounters {
   ExchangeCounters total;       // sum over every peer ever registered
   uint64_t unknown_source = 0;  // datagrams from an endpoint no peer is registered for
   uint64_t receive_errors = 0;  // socket errors while receiving (the loop goes on)
-  // Wake-ups of the I/O thread more than kStallThreshold after the moment it asked to wake (or
-  // a datagram arrived): the thread was held off the CPU (decision 1312).
+  // Stalls of the I/O thread longer than kStallThreshold (500 us): a wake-up that late after the
+  // moment it asked to wake, or a turn of the loop whose wall time exceeds the thread's CPU time
+  // by that much. Either way the thread was held off the CPU (decision 1312).
   uint64_t io_stalls = 0;
-  double io_stalled_ms = 0;  // their summed lateness
+  double io_stalled_ms = 0;  // their summed length (wake-up lateness or the whole turn)
 };
 
 enum class LinkState { kUnknown, kOnline, kOffline };
@@ -188,6 +189,8 @@ class Session {
   // Closes the cycle periods of `p` that ended by `now` (ExchangeCounters::cycles/late_cycles,
   // late_cycles_stalled against the last I/O stall).
   void RollPeriodsLocked(Peer& p, TimePoint now);
+  // Counts a stall of the I/O thread over [from, until] (decision 1312).
+  void NoteStallLocked(TimePoint from, TimePoint until);
 
   const Clock& clock_;
   transport::UdpSocket socket_;

@@ -439,8 +439,7 @@ TEST(Session, Cycles_ThreadStall_LatePeriodsCountedAsStalled) {
   // Ten 2 ms periods pass without the thread running. A jump that lands while the thread is
   // between two waits (µs of processing) is indistinguishable from the thread being busy and is
   // not a stall; then jump again.
-  for (int attempt = 0; attempt < 5 && session->counters().io_stalls == stalls_before;
-       ++attempt) {
+  for (int attempt = 0; attempt < 5 && session->counters().io_stalls == stalls_before; ++attempt) {
     clock.Jump(20ms);
     std::this_thread::sleep_for(50ms);
   }
