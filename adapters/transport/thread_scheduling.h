@@ -5,6 +5,7 @@
 #include <pthread.h>
 
 #include <chrono>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -47,5 +48,9 @@ void MinimiseTimerSlack();
 // accounting it does not advance while the hypervisor runs something else, so wall time minus
 // this over a busy stretch is the time the thread was held off the CPU.
 std::chrono::nanoseconds ThreadCpuTime();
+
+// Voluntary context switches of the calling thread so far (getrusage RUSAGE_THREAD ru_nvcsw):
+// it advances when the thread blocks (a lock, a full socket), not when it is preempted.
+uint64_t ThreadVoluntarySwitches();
 
 }  // namespace drivegw::transport

@@ -424,6 +424,7 @@ void Session::Run() {
   std::unique_lock lock(mu_);
   TimePoint woke = clock_.Now();
   Duration cpu_at_wait = transport::ThreadCpuTime();
+  uint64_t switches_at_wake = transport::ThreadVoluntarySwitches();
   while (!stopping_) {
     TimePoint now = clock_.Now();
     TakeUrgentLocked(now);
@@ -432,10 +433,11 @@ void Session::Run() {
     Duration wait = kIdleWait;
     const TimePoint wait_from = clock_.Now();
     // Decision 1312: the turn since the last wake-up took wall time the thread did not spend on
-    // a CPU (a hypervisor or a higher priority held it off; the thread's own work is CPU time).
+    // a CPU although it never blocked (a hypervisor or a higher priority held it off). Waiting
+    // for a lock is a voluntary switch: the gateway's own contention is never called a stall.
     const Duration cpu_now = transport::ThreadCpuTime();
     if (const Duration off_cpu = (wait_from - woke) - (cpu_now - cpu_at_wait);
-        off_cpu > kStallThreshold) {
+        off_cpu > kStallThreshold && transport::ThreadVoluntarySwitches() == switches_at_wake) {
       NoteStallLocked(woke, wait_from);
     }
     cpu_at_wait = cpu_now;
@@ -443,15 +445,17 @@ void Session::Run() {
       wait = std::clamp(timers_.front().due - wait_from, Duration::zero(), kIdleWait);
     lock.unlock();
     absl::StatusOr<size_t> got = socket_.ReceiveBatch(receive_slots_, wait);
+    // The wait ends by wait_from + wait at the latest (earlier for a datagram or a wake-up), so
+    // waking later than that is a lower bound of how long the thread was held off the CPU. Taken
+    // before the lock: a wait for mu_ belongs to the turn (and is a voluntary switch there).
+    woke = clock_.Now();
+    switches_at_wake = transport::ThreadVoluntarySwitches();
     lock.lock();
     if (stopping_) break;
-    // The wait ends by wait_from + wait at the latest (earlier for a datagram or a wake-up), so
-    // waking later than that is a lower bound of how long the thread was held off the CPU.
-    now = clock_.Now();
-    woke = now;
-    if (const TimePoint due = wait_from + wait; now - due > kStallThreshold) {
-      NoteStallLocked(due, now);
+    if (const TimePoint due = wait_from + wait; woke - due > kStallThreshold) {
+      NoteStallLocked(due, woke);
     }
+    now = clock_.Now();
     if (!got.ok()) {
       if (absl::IsCancelled(got.status())) break;  // Shutdown
       log::Warn("linudp_receive_error",

@@ -119,6 +119,26 @@ TEST(ThreadScheduling, Apply_NoSuchCpu_InvalidArgument) {
   EXPECT_NE(s.message().find("drive 'x1'.linudp.io_cpus"), std::string::npos) << s;
 }
 
+// Decision 1312 tells a stall from the thread's own work and from blocking with these two.
+TEST(ThreadScheduling, ThreadCpuTime_AdvancesWhileSpinningNotWhileSleeping) {
+  const auto a = ThreadCpuTime();
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const auto b = ThreadCpuTime();
+  EXPECT_LT(b - a, std::chrono::milliseconds(5));
+  // Spinning: it advances (waited for with a deadline; on a loaded host the spin gets a share).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (ThreadCpuTime() - b < std::chrono::milliseconds(2) &&
+         std::chrono::steady_clock::now() < deadline) {
+  }
+  EXPECT_GE(ThreadCpuTime() - b, std::chrono::milliseconds(2));
+}
+
+TEST(ThreadScheduling, ThreadVoluntarySwitches_AdvanceWhenBlocking) {
+  const uint64_t before = ThreadVoluntarySwitches();
+  std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  EXPECT_GT(ThreadVoluntarySwitches(), before);
+}
+
 // In a child process: drops CAP_SYS_NICE and RLIMIT_RTPRIO (an unprivileged container), asks
 // for SCHED_FIFO and returns 0 when that was refused with PermissionDenied naming key and fix.
 int RefusedWithoutCapSysNice() {
