@@ -22,10 +22,17 @@
 // Run: build/bench/linudp_cyclic_bench [seconds per N = 5] [N list = 25,50,100,200,300,400] [rt]
 // `rt` runs this process and the simulators under SCHED_FIFO (priority 10, inherited by every
 // thread and by the fork/exec'ed simulators), as [RC] runs its 1.1 ms LinUDP loop
-// (linmot-linudp.md 6.5): on this shared 2-core VM, with other builds at load 8-10, both the
-// gateway and the bare loop otherwise wait for a CPU longer than the 2 ms cycle. Gateway and
-// baseline get the same priority; the kernel's RT throttling (sched_rt_runtime_us) still
-// leaves 5 % to everyone else.
+// (linmot-linudp.md 6.5), and gives the gateway's drives linudp.io_priority 10 (decision 1311):
+// on this shared 2-core VM, with other builds at load 8-10, both the gateway and the bare loop
+// otherwise wait for a CPU longer than the 2 ms cycle. Gateway and baseline get the same
+// priority; the kernel's RT throttling (sched_rt_runtime_us) still leaves 5 % to everyone else.
+// The run of record uses `rt` (bench/list.txt, decision 1311).
+//
+// Why a period was late (decision 1312), per N and side: "run%" are the late periods while the
+// loop's own thread was running (not stalled > 500 us past its wake-up time; the session counts
+// late_cycles_stalled, the bare loop the same way here), and a host probe (a thread that only
+// wakes on the 2 ms grid, same priority) runs alongside every window with the hypervisor's steal
+// time, so each row shows what the host alone lost at that moment.
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -58,6 +65,7 @@
 #include "adapters/linmot/linudp/codec.h"
 #include "adapters/linmot/linudp/drive.h"
 #include "adapters/linmot/linudp/factory.h"
+#include "adapters/transport/thread_scheduling.h"
 #include "bench/report.h"
 
 #ifndef DGW_SIM_BIN
@@ -74,6 +82,9 @@ constexpr auto kCycle = 2ms;
 constexpr auto kReplyTimeout = 50ms;   // A-10 default
 constexpr int kMaxDrivesPerSim = 256;  // drivegw-sim linmot --count limit
 constexpr uint32_t kLoopback = 0x7F000001;
+constexpr int kRtPriority = 10;  // `rt`: SCHED_FIFO priority of both sides and the simulators
+// The session's threshold for a stall of its I/O thread (session.cpp, decision 1312).
+constexpr auto kStallThreshold = 500us;
 
 double CpuSeconds() {
   rusage u{};
@@ -221,11 +232,28 @@ struct Window {
   uint64_t timeouts = 0;
   uint64_t cycles = 0;
   uint64_t late = 0;
-  double cpu_s = 0;      // this process
-  double sim_cpu_s = 0;  // the simulator processes
+  uint64_t late_stalled = 0;  // late periods overlapping a stall of the loop's own thread
+  double cpu_s = 0;           // this process
+  double sim_cpu_s = 0;       // the simulator processes
   double load = 0;
+  // The host during this very window (HostProbe, same priority, running alongside): what a
+  // loop that does nothing but wake on the 2 ms grid lost, and the hypervisor's steal time.
+  uint64_t host_wakeups = 0;
+  uint64_t host_late = 0;    // wake-ups more than 1 ms (half a cycle) late
+  double host_stall_ms = 0;  // sum of the lateness of those wake-ups
+  double host_max_late_us = 0;
+  double steal_ms = 0;  // /proc/stat steal, all CPUs
+  double host_late_pct() const {
+    return host_wakeups ? 100.0 * static_cast<double>(host_late) / static_cast<double>(host_wakeups)
+                        : 0;
+  }
   double late_pct() const {
     return cycles ? 100.0 * static_cast<double>(late) / static_cast<double>(cycles) : 100.0;
+  }
+  // Late periods while the loop's thread was running: what the exchange itself missed.
+  double late_unstalled_pct() const {
+    return cycles ? 100.0 * static_cast<double>(late - late_stalled) / static_cast<double>(cycles)
+                  : 100.0;
   }
   double cpu_us_per_exchange() const {
     return exchanges ? cpu_s * 1e6 / static_cast<double>(exchanges) : 0;
@@ -235,9 +263,72 @@ struct Window {
   }
 };
 
+// The host alone: a thread that only sleeps to an absolute 2 ms grid (clock_nanosleep) and
+// records how late it wakes, at the same priority as the two sides. No network, no LinUDP: the
+// fraction of wake-ups late by more than half a cycle bounds what any 2 ms loop can meet here.
+struct HostProbe {
+  uint64_t wakeups = 0;
+  uint64_t late_half_cycle = 0;  // woke more than 1 ms after its grid point
+  double late_sum_us = 0;        // summed lateness of those wake-ups
+  double max_late_us = 0;
+  double late_pct() const {
+    return wakeups ? 100.0 * static_cast<double>(late_half_cycle) / static_cast<double>(wakeups)
+                   : 0;
+  }
+};
+
+HostProbe ProbeHostUntil(SteadyClock::time_point end) {
+  HostProbe h;
+  timespec next{};
+  clock_gettime(CLOCK_MONOTONIC, &next);
+  while (SteadyClock::now() < end) {
+    next.tv_nsec += std::chrono::nanoseconds(kCycle).count();
+    if (next.tv_nsec >= 1'000'000'000) {
+      next.tv_nsec -= 1'000'000'000;
+      ++next.tv_sec;
+    }
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
+    timespec now{};
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    const double late_us = static_cast<double>(now.tv_sec - next.tv_sec) * 1e6 +
+                           static_cast<double>(now.tv_nsec - next.tv_nsec) / 1e3;
+    ++h.wakeups;
+    if (late_us > 1000) {
+      ++h.late_half_cycle;
+      h.late_sum_us += late_us;
+    }
+    h.max_late_us = std::max(h.max_late_us, late_us);
+  }
+  return h;
+}
+
+HostProbe ProbeHost(double seconds) {
+  return ProbeHostUntil(SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                 std::chrono::duration<double>(seconds)));
+}
+
+// Steal time of the whole machine (/proc/stat "cpu" line, 8th value): time the hypervisor ran
+// something else while a virtual CPU of this guest wanted to run. Milliseconds.
+double StealMs() {
+  std::ifstream f("/proc/stat");
+  std::string cpu;
+  double v[8] = {};
+  f >> cpu;
+  for (double& x : v) f >> x;
+  return v[7] * 1000.0 / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+void AddHost(Window& w, const HostProbe& h, double steal_ms) {
+  w.host_wakeups = h.wakeups;
+  w.host_late = h.late_half_cycle;
+  w.host_stall_ms = h.late_sum_us / 1000.0;
+  w.host_max_late_us = h.max_late_us;
+  w.steal_ms = steal_ms;
+}
+
 // ---- gateway side -------------------------------------------------------------------------
 
-drivegw::DriveConfig DriveConfigFor(int i, const SimFarm& farm) {
+drivegw::DriveConfig DriveConfigFor(int i, const SimFarm& farm, int io_priority) {
   drivegw::DriveConfig c;
   c.name = "b" + std::to_string(i + 1);
   c.family = "linmot";
@@ -252,12 +343,15 @@ drivegw::DriveConfig DriveConfigFor(int i, const SimFarm& farm) {
   l.master_port = farm.master_port;
   l.cycle = kCycle;
   l.reply_timeout = kReplyTimeout;
+  // `rt`: the I/O thread's SCHED_FIFO priority set the way an installation sets it
+  // (linudp.io_priority, decision 1311), the same priority the bare loop runs at.
+  l.io_priority = io_priority;
   c.linudp = l;
   return c;
 }
 
 struct Totals {
-  uint64_t replies = 0, sent = 0, timeouts = 0, cycles = 0, late = 0;
+  uint64_t replies = 0, sent = 0, timeouts = 0, cycles = 0, late = 0, late_stalled = 0;
 };
 
 Totals Sum(const std::vector<std::unique_ptr<drivegw::Drive>>& drives) {
@@ -270,15 +364,16 @@ Totals Sum(const std::vector<std::unique_ptr<drivegw::Drive>>& drives) {
     t.timeouts += c->timeouts;
     t.cycles += c->cycles;
     t.late += c->late_cycles;
+    t.late_stalled += c->late_cycles_stalled;
   }
   return t;
 }
 
-std::optional<Window> MeasureGateway(int n, const SimFarm& farm, double seconds) {
+std::optional<Window> MeasureGateway(int n, const SimFarm& farm, double seconds, int io_priority) {
   std::vector<std::unique_ptr<drivegw::Drive>> drives;
   for (int i = 0; i < n; ++i) {
-    auto d =
-        linudp::CreateLinMotUdpDrive(DriveConfigFor(i, farm), drivegw::SteadyClock::Instance());
+    auto d = linudp::CreateLinMotUdpDrive(DriveConfigFor(i, farm, io_priority),
+                                          drivegw::SteadyClock::Instance());
     if (!d.ok()) {
       std::fprintf(stderr, "drive: %s\n", std::string(d.status().message()).c_str());
       return std::nullopt;
@@ -306,11 +401,13 @@ std::optional<Window> MeasureGateway(int n, const SimFarm& farm, double seconds)
   }
   std::this_thread::sleep_for(300ms);
   const Totals a = Sum(drives);
-  const double cpu_a = CpuSeconds(), sim_a = farm.CpuSeconds();
+  const double cpu_a = CpuSeconds(), sim_a = farm.CpuSeconds(), steal_a = StealMs();
   const auto t_a = SteadyClock::now();
-  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  // This thread would only sleep through the window: it probes the host instead.
+  const HostProbe host = ProbeHostUntil(t_a + std::chrono::duration_cast<SteadyClock::duration>(
+                                                  std::chrono::duration<double>(seconds)));
   const Totals b = Sum(drives);
-  const double cpu_b = CpuSeconds(), sim_b = farm.CpuSeconds();
+  const double cpu_b = CpuSeconds(), sim_b = farm.CpuSeconds(), steal_b = StealMs();
   const auto t_b = SteadyClock::now();
   Window w;
   w.seconds = std::chrono::duration<double>(t_b - t_a).count();
@@ -319,9 +416,11 @@ std::optional<Window> MeasureGateway(int n, const SimFarm& farm, double seconds)
   w.timeouts = b.timeouts - a.timeouts;
   w.cycles = b.cycles - a.cycles;
   w.late = b.late - a.late;
+  w.late_stalled = b.late_stalled - a.late_stalled;
   w.cpu_s = cpu_b - cpu_a;
   w.sim_cpu_s = sim_b - sim_a;
   w.load = LoadAverage();
+  AddHost(w, host, steal_b - steal_a);
   for (auto& d : drives) d->Deactivate();  // the last one closes the shared master socket
   return w;
 }
@@ -364,7 +463,12 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
   std::vector<State> st(static_cast<size_t>(n));
   Window w;
   bool measuring = false;
-  uint64_t sent = 0, replies = 0, timeouts = 0, cycles = 0, late = 0;
+  uint64_t sent = 0, replies = 0, timeouts = 0, cycles = 0, late = 0, late_stalled = 0;
+  // The last stall of this thread, detected as the session detects its own (decision 1312): a
+  // wake-up more than kStallThreshold after the wait's end, or a turn that long off the CPU.
+  SteadyClock::time_point stall_from{}, stall_until{};
+  SteadyClock::time_point woke = SteadyClock::now();
+  auto cpu_at_wait = drivegw::transport::ThreadCpuTime();
   auto send = [&](int i, SteadyClock::time_point now) {
     ::sendto(fd, request.data(), request.size(), 0, reinterpret_cast<const sockaddr*>(&to[i]),
              sizeof(sockaddr_in));
@@ -377,14 +481,29 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
   const auto warm_end = period + 300ms;
   const auto end = warm_end + std::chrono::duration_cast<SteadyClock::duration>(
                                   std::chrono::duration<double>(seconds));
-  double cpu_a = 0, sim_a = 0;
+  double cpu_a = 0, sim_a = 0, steal_a = 0;
   SteadyClock::time_point t_a;
+  // The host probe runs alongside the measured window, as on the gateway side.
+  HostProbe host;
+  std::thread prober([&host, warm_end, end] {
+    std::this_thread::sleep_until(warm_end);
+    host = ProbeHostUntil(end);
+  });
   auto roll = [&](SteadyClock::time_point now) {
     if (now < period + kCycle) return;
     const auto k = static_cast<uint64_t>((now - period) / kCycle);
+    // Ended periods j = 0 .. k-1 overlapping the last stall (the same rule as the session).
+    uint64_t first = 1, last = 0;
+    if (stall_until > stall_from && stall_until > period) {
+      first = static_cast<uint64_t>(std::max<SteadyClock::rep>(0, (stall_from - period) / kCycle));
+      last = std::min<uint64_t>(
+          k - 1, static_cast<uint64_t>((stall_until - period - SteadyClock::duration(1)) / kCycle));
+    }
     for (State& s : st) {
       cycles += k;
       late += k - (s.met ? 1 : 0);
+      const uint64_t from = s.met ? std::max<uint64_t>(first, 1) : first;
+      if (last >= from) late_stalled += last - from + 1;
       s.met = false;
       s.sent_in_period = false;
       if (s.outstanding && now >= s.sent_at + kReplyTimeout) {
@@ -403,9 +522,10 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
     SteadyClock::time_point now = SteadyClock::now();
     if (!measuring && now >= warm_end) {
       measuring = true;
-      sent = replies = timeouts = cycles = late = 0;
+      sent = replies = timeouts = cycles = late = late_stalled = 0;
       cpu_a = CpuSeconds();
       sim_a = farm.CpuSeconds();
+      steal_a = StealMs();
       t_a = now;
     }
     if (now >= end) break;
@@ -414,8 +534,22 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
     const timespec ts{0,
                       std::max<long>(0, static_cast<long>(std::chrono::nanoseconds(wait).count()))};
     pollfd p{fd, POLLIN, 0};
+    const auto due = now + std::chrono::nanoseconds(ts.tv_nsec);
+    // A turn whose wall time exceeds this thread's CPU time by the threshold was a stall too.
+    const auto wait_from = SteadyClock::now();
+    const auto cpu_now = drivegw::transport::ThreadCpuTime();
+    if ((wait_from - woke) - (cpu_now - cpu_at_wait) > kStallThreshold) {
+      stall_from = woke;
+      stall_until = wait_from;
+    }
+    cpu_at_wait = cpu_now;
     ::ppoll(&p, 1, &ts, nullptr);
     now = SteadyClock::now();
+    woke = now;
+    if (now - due > kStallThreshold) {
+      stall_from = due;
+      stall_until = now;
+    }
     roll(now);
     for (;;) {
       sockaddr_in from{};
@@ -439,46 +573,13 @@ std::optional<Window> MeasureBareLoop(int n, const SimFarm& farm, double seconds
   w.timeouts = timeouts;
   w.cycles = cycles;
   w.late = late;
+  w.late_stalled = late_stalled;
   w.load = LoadAverage();
+  const double steal_b = StealMs();
+  prober.join();
+  AddHost(w, host, steal_b - steal_a);
   ::close(fd);
   return w;
-}
-
-// The host alone: a thread that only sleeps to an absolute 2 ms grid (clock_nanosleep) and
-// records how late it wakes, at the same priority as the two sides. No network, no LinUDP: the
-// fraction of wake-ups late by more than half a cycle bounds what any 2 ms loop can meet here.
-struct HostProbe {
-  uint64_t wakeups = 0;
-  uint64_t late_half_cycle = 0;  // woke more than 1 ms after its grid point
-  double max_late_us = 0;
-  double late_pct() const {
-    return wakeups ? 100.0 * static_cast<double>(late_half_cycle) / static_cast<double>(wakeups)
-                   : 0;
-  }
-};
-
-HostProbe ProbeHost(double seconds) {
-  HostProbe h;
-  timespec next{};
-  clock_gettime(CLOCK_MONOTONIC, &next);
-  const auto end = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
-                                            std::chrono::duration<double>(seconds));
-  while (SteadyClock::now() < end) {
-    next.tv_nsec += std::chrono::nanoseconds(kCycle).count();
-    if (next.tv_nsec >= 1'000'000'000) {
-      next.tv_nsec -= 1'000'000'000;
-      ++next.tv_sec;
-    }
-    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
-    timespec now{};
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    const double late_us = static_cast<double>(now.tv_sec - next.tv_sec) * 1e6 +
-                           static_cast<double>(now.tv_nsec - next.tv_nsec) / 1e3;
-    ++h.wakeups;
-    if (late_us > 1000) ++h.late_half_cycle;
-    h.max_late_us = std::max(h.max_late_us, late_us);
-  }
-  return h;
 }
 
 struct Row {
@@ -494,11 +595,18 @@ nlohmann::json WindowJson(const Window& w) {
           {"cycles", w.cycles},
           {"late_cycles", w.late},
           {"late_pct", w.late_pct()},
+          {"late_cycles_stalled", w.late_stalled},
+          {"late_unstalled_pct", w.late_unstalled_pct()},
           {"cpu_us_per_exchange", w.cpu_us_per_exchange()},
           {"cpu_pct_of_core", 100 * w.cpu_s / w.seconds},
           {"sim_cpu_us_per_exchange", w.sim_us_per_exchange()},
           {"sim_cpu_pct_of_core", 100 * w.sim_cpu_s / w.seconds},
-          {"load_average", w.load}};
+          {"load_average", w.load},
+          {"host_late_pct", w.host_late_pct()},
+          {"host_wakeups", w.host_wakeups},
+          {"host_stall_ms", w.host_stall_ms},
+          {"host_max_late_us", w.host_max_late_us},
+          {"steal_ms", w.steal_ms}};
 }
 
 std::vector<int> ParseList(const char* text) {
@@ -519,7 +627,7 @@ int main(int argc, char** argv) {
   bool rt = argc > 3 && std::string(argv[3]) == "rt";
   if (rt) {
     sched_param param{};
-    param.sched_priority = 10;
+    param.sched_priority = kRtPriority;
     if (::sched_setscheduler(0, SCHED_FIFO, &param) != 0) {
       // Not root: measured at normal priority, and the output says so.
       std::fprintf(stderr, "rt: sched_setscheduler: %s (normal priority)\n", std::strerror(errno));
@@ -537,9 +645,13 @@ int main(int argc, char** argv) {
   std::printf("host: %llu wake-ups on a 2 ms grid, %.3f %% late by > 1 ms, max %.0f us\n",
               static_cast<unsigned long long>(host.wakeups), host.late_pct(), host.max_late_us);
   std::fflush(stdout);
-  std::printf("%5s | %10s %8s %9s %7s %7s | %10s %8s %9s %7s | %6s\n", "N", "gw exch/s", "gw late%",
-              "gw us/tg", "gw cpu%", "sim%", "bare ex/s", "bare lt%", "bare us/tg", "sim%",
-              "ratio");
+  // run%: late periods while the loop's own thread ran (not stalled, decision 1312).
+  // host% / stall / steal: the host probe alongside each window (wake-ups > 1 ms late, their
+  // summed lateness in ms, the hypervisor's steal time in ms).
+  std::printf(
+      "%5s | %10s %8s %7s %9s %7s %7s %6s %6s %6s | %10s %8s %7s %9s %7s %6s %6s %6s | %6s\n", "N",
+      "gw exch/s", "gw late%", "run%", "gw us/tg", "gw cpu%", "sim%", "host%", "stall", "steal",
+      "bare ex/s", "bare lt%", "run%", "bare us/tg", "sim%", "host%", "stall", "steal", "ratio");
   std::fflush(stdout);
   std::vector<Row> rows;
   bool failed = false;
@@ -550,7 +662,7 @@ int main(int argc, char** argv) {
       failed = true;
       break;
     }
-    auto gw = MeasureGateway(n, *farm, seconds);
+    auto gw = MeasureGateway(n, *farm, seconds, rt ? kRtPriority : 0);
     auto bare = gw ? MeasureBareLoop(n, *farm, seconds) : std::nullopt;
     if (!gw || !bare || gw->exchanges == 0 || bare->exchanges == 0) {
       std::fprintf(stderr, "N=%d: a side exchanged nothing\n", n);
@@ -558,12 +670,16 @@ int main(int argc, char** argv) {
       break;
     }
     const double ratio = gw->cpu_us_per_exchange() / bare->cpu_us_per_exchange();
-    std::printf("%5d | %10.0f %8.3f %9.2f %7.1f %7.1f | %10.0f %8.3f %9.2f %7.1f | %6.2f\n", n,
-                static_cast<double>(gw->exchanges) / gw->seconds, gw->late_pct(),
-                gw->cpu_us_per_exchange(), 100 * gw->cpu_s / gw->seconds,
-                100 * gw->sim_cpu_s / gw->seconds,
-                static_cast<double>(bare->exchanges) / bare->seconds, bare->late_pct(),
-                bare->cpu_us_per_exchange(), 100 * bare->sim_cpu_s / bare->seconds, ratio);
+    std::printf(
+        "%5d | %10.0f %8.3f %7.3f %9.2f %7.1f %7.1f %6.3f %6.1f %6.0f | %10.0f %8.3f %7.3f %9.2f "
+        "%7.1f %6.3f %6.1f %6.0f | %6.2f\n",
+        n, static_cast<double>(gw->exchanges) / gw->seconds, gw->late_pct(),
+        gw->late_unstalled_pct(), gw->cpu_us_per_exchange(), 100 * gw->cpu_s / gw->seconds,
+        100 * gw->sim_cpu_s / gw->seconds, gw->host_late_pct(), gw->host_stall_ms, gw->steal_ms,
+        static_cast<double>(bare->exchanges) / bare->seconds, bare->late_pct(),
+        bare->late_unstalled_pct(), bare->cpu_us_per_exchange(),
+        100 * bare->sim_cpu_s / bare->seconds, bare->host_late_pct(), bare->host_stall_ms,
+        bare->steal_ms, ratio);
     std::fflush(stdout);
     rows.push_back({n, *gw, *bare});
   }

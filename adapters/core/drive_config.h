@@ -30,6 +30,11 @@ struct LinUdpConfig {
   std::chrono::milliseconds cycle{5};
   std::chrono::milliseconds reply_timeout{50};
   int lost_after_timeouts = 5;
+  // Scheduling of the I/O thread of this drive's master socket, shared by every drive with the
+  // same bind_host:master_port (docs/config.md; decision 1311): 0 = the process' own policy,
+  // 1..99 = SCHED_FIFO at that priority (needs CAP_SYS_NICE); empty io_cpus = any CPU.
+  int io_priority = 0;
+  std::vector<int> io_cpus;
 };
 
 // One classic CAN bus (docs/config.md "can"; docs/decisions/801-can-channel.md). Opened by

@@ -21,6 +21,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "adapters/stober/factory.h"
+#include "adapters/transport/thread_scheduling.h"
 #include "adapters/trinamic/factory.h"
 #include "server/config/audit_config.h"
 #include "server/config/auth_config.h"
@@ -114,11 +115,44 @@ void ParseListen(const Section& root, ListenConfig& listen) {
   }
 }
 
+// A sequence of distinct CPU numbers 0..ThreadScheduling::kMaxCpu.
+void ParseCpuList(const Section& s, std::string_view key, std::vector<int>& out) {
+  const auto node = s.Get(key);
+  if (!node || node->IsNull()) return;
+  const std::string path = s.Child(key);
+  if (!node->IsSequence()) {
+    s.errors().Add(path, absl::StrCat("expected a sequence of CPU numbers, got ", KindName(*node)),
+                   *node);
+    return;
+  }
+  std::vector<int> cpus;
+  for (size_t i = 0; i < node->size(); ++i) {
+    const YAML::Node entry = (*node)[i];
+    const std::string at = absl::StrCat(path, "[", i, "]");
+    int64_t cpu = 0;
+    if (!entry.IsScalar() || !absl::SimpleAtoi(entry.Scalar(), &cpu)) {
+      s.errors().Add(at, absl::StrCat(Section::Shown(entry), " is not an integer"), entry);
+      return;
+    }
+    if (cpu < 0 || cpu > transport::ThreadScheduling::kMaxCpu) {
+      s.errors().Add(at, absl::StrCat(cpu, " is outside 0..", transport::ThreadScheduling::kMaxCpu),
+                     entry);
+      return;
+    }
+    if (std::find(cpus.begin(), cpus.end(), cpu) != cpus.end()) {
+      s.errors().Add(at, absl::StrCat("CPU ", cpu, " is given twice"), entry);
+      return;
+    }
+    cpus.push_back(static_cast<int>(cpu));
+  }
+  out = std::move(cpus);
+}
+
 void ParseLinUdp(const Section& drive, LinUdpConfig& out) {
   const YAML::Node node = *drive.Get("linudp");
   const Section s(node, drive.Child("linudp"),
                   {"host", "port", "master_port", "bind_host", "cycle_ms", "reply_timeout_ms",
-                   "lost_after_timeouts"},
+                   "lost_after_timeouts", "io_priority", "io_cpus"},
                   drive.errors());
   if (!node.IsNull() && !node.IsMap()) return;
   if (s.String("host", out.host, /*required=*/true) && !IsValidHost(out.host)) {
@@ -140,6 +174,11 @@ void ParseLinUdp(const Section& drive, LinUdpConfig& out) {
   if (s.Int("lost_after_timeouts", 1, kMaxLostAfterTimeouts, v)) {
     out.lost_after_timeouts = static_cast<int>(v);
   }
+  // Decision 1311: real-time scheduling of the master socket's I/O thread.
+  if (s.Int("io_priority", 0, transport::ThreadScheduling::kMaxFifoPriority, v)) {
+    out.io_priority = static_cast<int>(v);
+  }
+  ParseCpuList(s, "io_cpus", out.io_cpus);
 }
 
 void ParseAxis(const Section& drive, AxisConfig& out) {
@@ -251,6 +290,8 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
   std::map<std::string, size_t> names;                         // name -> index
   std::map<std::pair<std::string, uint16_t>, size_t> targets;  // linudp host:port -> index
   std::map<std::pair<std::string, uint8_t>, size_t> mac_ids;   // (CAN bus, MAC ID) -> index
+  // linudp bind_host:master_port -> (first index, its linudp): one shared I/O thread (1311).
+  std::map<std::pair<std::string, uint16_t>, std::pair<size_t, LinUdpConfig>> master_sockets;
   internal::TrinamicControllers trinamic(errors);
   internal::CanOpenNodes canopen_nodes(errors);
   internal::CanBusProtocols bus_protocols(errors);
@@ -292,6 +333,21 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
                    absl::StrCat(drive.linudp->host, ":", drive.linudp->port,
                                 " is also the address of drives[", it->second, "]"),
                    *s.Get("linudp"));
+      }
+      // Port 0 is an ephemeral socket per drive, never shared (decision 702 §5).
+      const auto master = std::make_pair(drive.linudp->bind_host, drive.linudp->master_port);
+      if (auto [first, fresh_master] =
+              master_sockets.emplace(master, std::make_pair(i, *drive.linudp));
+          !fresh_master && master.second != 0) {
+        const LinUdpConfig& other = first->second.second;
+        if (other.io_priority != drive.linudp->io_priority ||
+            other.io_cpus != drive.linudp->io_cpus) {
+          errors.Add(s.Child("linudp"),
+                     absl::StrCat("io_priority/io_cpus differ from drives[", first->second.first,
+                                  "], which shares master socket ", master.first, ":",
+                                  master.second, " (one I/O thread serves both)"),
+                     *s.Get("linudp"));
+        }
       }
     } else if (drive.family == "linmot") {
       // linmot-linudp.md §1: the LinMot family talks LinUDP, so it needs the drive's address.

@@ -172,7 +172,10 @@ absl::Status LinMotUdpDrive::DoActivate() {
   if (!local.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("linudp.bind_host: ", local.status().message()));
   }
-  auto session = SessionPool::Instance().Acquire(*local, clock_);
+  transport::ThreadScheduling scheduling;
+  scheduling.fifo_priority = c.io_priority;
+  scheduling.cpus = c.io_cpus;
+  auto session = SessionPool::Instance().Acquire(*local, clock_, scheduling);
   if (!session.ok()) return session.status();
   {
     std::lock_guard lock(mu_);

@@ -4,6 +4,7 @@
 #include "absl/strings/str_cat.h"
 #include "adapters/linmot/linudp/drive.h"
 #include "adapters/transport/endpoint.h"
+#include "adapters/transport/thread_scheduling.h"
 
 namespace drivegw::linmot::linudp {
 
@@ -38,6 +39,13 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateLinMotUdpDrive(const DriveConfig& c
   if (c.lost_after_timeouts < 1) {
     return absl::InvalidArgumentError(absl::StrCat(
         where, ".linudp.lost_after_timeouts: ", c.lost_after_timeouts, " must be at least 1"));
+  }
+  transport::ThreadScheduling scheduling;
+  scheduling.fifo_priority = c.io_priority;
+  scheduling.cpus = c.io_cpus;
+  if (absl::Status s = transport::ValidateThreadScheduling(scheduling, where + ".linudp");
+      !s.ok()) {
+    return s;
   }
   const TimeoutConfig& t = config.timeouts;
   for (const auto& [field, value] : {std::pair{"request", t.request}, std::pair{"accept", t.accept},

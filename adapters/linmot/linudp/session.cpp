@@ -6,7 +6,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "adapters/core/log.h"
+#include "adapters/core/status.h"
 #include "adapters/core/wire_observer.h"
 
 namespace drivegw::linmot::linudp {
@@ -19,6 +21,10 @@ constexpr Duration kIdleWait = std::chrono::milliseconds(200);
 // few times per cycle and sends each group with one sendmmsg instead of waking once per drive
 // (issue 10, P2). The first telegram still leaves at once (Register).
 constexpr Duration kGridTick = std::chrono::microseconds(250);
+// A wake-up of the I/O thread later than this after it was due is a stall of the thread (the
+// host held it off the CPU), counted apart from the exchange's own late periods (decision 1312):
+// a quarter of the 2 ms cycle of issue 10 (P2), well above the tens of µs of a normal wake-up.
+constexpr Duration kStallThreshold = std::chrono::microseconds(500);
 // Datagrams taken per recvmmsg.
 constexpr size_t kReceiveBatch = transport::UdpSocket::kMaxBatch;
 
@@ -34,6 +40,7 @@ void Add(ExchangeCounters& into, const ExchangeCounters& c) {
   into.header_mismatch += c.header_mismatch;
   into.cycles += c.cycles;
   into.late_cycles += c.late_cycles;
+  into.late_cycles_stalled += c.late_cycles_stalled;
 }
 
 }  // namespace
@@ -50,24 +57,40 @@ const char* ToString(LinkState s) {
   return "?";
 }
 
-absl::StatusOr<std::shared_ptr<Session>> Session::Open(const transport::Endpoint& local,
-                                                       const Clock& clock) {
+absl::StatusOr<std::shared_ptr<Session>> Session::Open(
+    const transport::Endpoint& local, const Clock& clock,
+    const transport::ThreadScheduling& scheduling) {
+  const std::string where = absl::StrCat("linudp session ", local.ToString());
+  DGW_RETURN_IF_ERROR(transport::ValidateThreadScheduling(scheduling, where));
   // Exclusive bind: a second gateway on the same master port must fail loudly instead of
   // stealing half of the replies (docs/decisions/202-udp-reuseaddr.md).
   transport::UdpSocket::BindOptions options;
   options.reuse_address = false;
   auto socket = transport::UdpSocket::Bind(local, options);
   if (!socket.ok()) return socket.status();
-  std::shared_ptr<Session> session(new Session(std::move(*socket), clock));
+  std::shared_ptr<Session> session(new Session(std::move(*socket), clock, scheduling));
   session->thread_ = std::thread([s = session.get()] { s->Run(); });
-  log::Info("linudp_session_open", log::Fields().Add("local", session->local_.ToString()));
+  // Applied from here so that a refusal reaches the caller; the thread has sent nothing yet
+  // (no peer can register before Open returns).
+  if (absl::Status s =
+          transport::ApplyThreadScheduling(session->thread_.native_handle(), scheduling, where);
+      !s.ok()) {
+    session->Stop();
+    return s;
+  }
+  log::Info("linudp_session_open", log::Fields()
+                                       .Add("local", session->local_.ToString())
+                                       .Add("io_priority", scheduling.fifo_priority)
+                                       .Add("io_cpus", absl::StrJoin(scheduling.cpus, ",")));
   return session;
 }
 
-Session::Session(transport::UdpSocket socket, const Clock& clock)
+Session::Session(transport::UdpSocket socket, const Clock& clock,
+                 transport::ThreadScheduling scheduling)
     : clock_(clock),
       socket_(std::move(socket)),
       local_(socket_.local_endpoint()),
+      scheduling_(std::move(scheduling)),
       epoch_(clock.Now()),
       receive_buffers_(kReceiveBatch) {
   receive_slots_.resize(kReceiveBatch);
@@ -231,6 +254,16 @@ void Session::RollPeriodsLocked(Peer& p, TimePoint now) {
   const auto ended = static_cast<uint64_t>((now - p.period_start) / cycle);
   p.counters.cycles += ended;
   p.counters.late_cycles += ended - (p.period_met ? 1 : 0);
+  if (stall_until_ > stall_from_ && stall_until_ > p.period_start) {
+    // Ended periods j = 0 .. ended-1 span [start + j*cycle, start + (j+1)*cycle); the late ones
+    // (all but a met first one) that overlap the last stall are counted as stalled.
+    const auto first =
+        static_cast<uint64_t>(std::max<Duration::rep>(0, (stall_from_ - p.period_start) / cycle));
+    const auto last = std::min<uint64_t>(
+        ended - 1, static_cast<uint64_t>((stall_until_ - p.period_start - Duration(1)) / cycle));
+    const uint64_t from = p.period_met ? std::max<uint64_t>(first, 1) : first;
+    if (last >= from) p.counters.late_cycles_stalled += last - from + 1;
+  }
   p.period_start += static_cast<int64_t>(ended) * cycle;
   p.period_met = false;
 }
@@ -398,27 +431,58 @@ void Session::HandleDatagramLocked(const transport::DatagramSlot& d, TimePoint n
   ArmLocked(p, now);
 }
 
+void Session::NoteStallLocked(TimePoint from, TimePoint until) {
+  ++counters_.io_stalls;
+  counters_.io_stalled_ms += std::chrono::duration<double, std::milli>(until - from).count();
+  stall_from_ = from;
+  stall_until_ = until;
+}
+
 void Session::Run() {
+  // Every wait of this loop is a timed ppoll to a grid tick; at the normal policy the default
+  // 50 us slack would let the kernel defer each of them (decision 1311).
+  transport::MinimiseTimerSlack();
   std::unique_lock lock(mu_);
+  TimePoint woke = clock_.Now();
+  Duration cpu_at_wait = transport::ThreadCpuTime();
+  uint64_t switches_at_wake = transport::ThreadVoluntarySwitches();
   while (!stopping_) {
     TimePoint now = clock_.Now();
     TakeUrgentLocked(now);
     FireTimersLocked(now);
     FlushLocked();
     Duration wait = kIdleWait;
+    const TimePoint wait_from = clock_.Now();
+    // Decision 1312: the turn since the last wake-up took wall time the thread did not spend on
+    // a CPU although it never blocked (a hypervisor or a higher priority held it off). Waiting
+    // for a lock is a voluntary switch: the gateway's own contention is never called a stall.
+    const Duration cpu_now = transport::ThreadCpuTime();
+    if (const Duration off_cpu = (wait_from - woke) - (cpu_now - cpu_at_wait);
+        off_cpu > kStallThreshold && transport::ThreadVoluntarySwitches() == switches_at_wake) {
+      NoteStallLocked(woke, wait_from);
+    }
+    cpu_at_wait = cpu_now;
     if (!timers_.empty())
-      wait = std::clamp(timers_.front().due - clock_.Now(), Duration::zero(), kIdleWait);
+      wait = std::clamp(timers_.front().due - wait_from, Duration::zero(), kIdleWait);
     lock.unlock();
     absl::StatusOr<size_t> got = socket_.ReceiveBatch(receive_slots_, wait);
+    // The wait ends by wait_from + wait at the latest (earlier for a datagram or a wake-up), so
+    // waking later than that is a lower bound of how long the thread was held off the CPU. Taken
+    // before the lock: a wait for mu_ belongs to the turn (and is a voluntary switch there).
+    woke = clock_.Now();
+    switches_at_wake = transport::ThreadVoluntarySwitches();
     lock.lock();
     if (stopping_) break;
+    if (const TimePoint due = wait_from + wait; woke - due > kStallThreshold) {
+      NoteStallLocked(due, woke);
+    }
+    now = clock_.Now();
     if (!got.ok()) {
       if (absl::IsCancelled(got.status())) break;  // Shutdown
       log::Warn("linudp_receive_error",
                 log::Fields().Add("local", local_.ToString()).Add("error", got.status().message()));
       continue;
     }
-    now = clock_.Now();
     for (size_t i = 0; i < *got; ++i) HandleDatagramLocked(receive_slots_[i], now);
     FlushLocked();
   }
@@ -429,16 +493,27 @@ SessionPool& SessionPool::Instance() {
   return *pool;
 }
 
-absl::StatusOr<std::shared_ptr<Session>> SessionPool::Acquire(const transport::Endpoint& local,
-                                                              const Clock& clock) {
-  if (local.port == 0) return Session::Open(local, clock);
+absl::StatusOr<std::shared_ptr<Session>> SessionPool::Acquire(
+    const transport::Endpoint& local, const Clock& clock,
+    const transport::ThreadScheduling& scheduling) {
+  if (local.port == 0) return Session::Open(local, clock, scheduling);
   std::lock_guard lock(mu_);
   auto it = sessions_.find(local);
   if (it != sessions_.end()) {
-    if (std::shared_ptr<Session> live = it->second.lock()) return live;
+    if (std::shared_ptr<Session> live = it->second.lock()) {
+      // One I/O thread serves every drive of the endpoint; it cannot run at two
+      // priorities, and taking either one silently would hide a configuration error.
+      if (!(live->scheduling() == scheduling)) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "linudp session ", local.ToString(), " runs its I/O thread with ",
+            live->scheduling().ToString(), ", this drive asks for ", scheduling.ToString(),
+            ": drives sharing bind_host:master_port must give the same values"));
+      }
+      return live;
+    }
     sessions_.erase(it);
   }
-  auto opened = Session::Open(local, clock);
+  auto opened = Session::Open(local, clock, scheduling);
   if (!opened.ok()) return opened.status();
   sessions_[local] = *opened;
   return *opened;

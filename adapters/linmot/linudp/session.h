@@ -20,6 +20,7 @@
 #include "adapters/core/clock.h"
 #include "adapters/linmot/linudp/codec.h"
 #include "adapters/transport/endpoint.h"
+#include "adapters/transport/thread_scheduling.h"
 #include "adapters/transport/udp_socket.h"
 
 namespace drivegw::linmot::linudp {
@@ -39,6 +40,10 @@ struct ExchangeCounters {
   // are what issue 10 (P2) counts against the cycle time.
   uint64_t cycles = 0;
   uint64_t late_cycles = 0;
+  // Late periods that overlap a stall of the session's own I/O thread (SessionCounters::
+  // io_stalls): the thread was not running, so the cause is the host's scheduling (priority,
+  // other load, a hypervisor), not the network or the drive (decision 1312).
+  uint64_t late_cycles_stalled = 0;
   std::optional<double> last_round_trip_ms;  // per peer only (not summed)
 };
 
@@ -46,6 +51,11 @@ struct SessionCounters {
   ExchangeCounters total;       // sum over every peer ever registered
   uint64_t unknown_source = 0;  // datagrams from an endpoint no peer is registered for
   uint64_t receive_errors = 0;  // socket errors while receiving (the loop goes on)
+  // Stalls of the I/O thread longer than kStallThreshold (500 us): a wake-up that late after the
+  // moment it asked to wake, or a turn of the loop whose wall time exceeds the thread's CPU time
+  // by that much. Either way the thread was held off the CPU (decision 1312).
+  uint64_t io_stalls = 0;
+  double io_stalled_ms = 0;  // their summed length (wake-up lateness or the whole turn)
 };
 
 enum class LinkState { kUnknown, kOnline, kOffline };
@@ -87,10 +97,13 @@ using PeerId = uint64_t;
 
 class Session {
  public:
-  // Binds `local` and starts the I/O thread. `clock` must advance in real time (the socket
-  // waits in real time) and outlive the session.
-  static absl::StatusOr<std::shared_ptr<Session>> Open(const transport::Endpoint& local,
-                                                       const Clock& clock);
+  // Binds `local` and starts the I/O thread with `scheduling` (linudp.io_priority / io_cpus,
+  // decision 1311). `clock` must advance in real time (the socket waits in real time) and
+  // outlive the session. A scheduling the system refuses fails the open (PermissionDenied
+  // without CAP_SYS_NICE), it is never dropped silently.
+  static absl::StatusOr<std::shared_ptr<Session>> Open(
+      const transport::Endpoint& local, const Clock& clock,
+      const transport::ThreadScheduling& scheduling = {});
   ~Session();
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
@@ -123,6 +136,7 @@ class Session {
 
   // The bound address (with the kernel's port when opened with port 0).
   transport::Endpoint local_endpoint() const { return local_; }
+  const transport::ThreadScheduling& scheduling() const { return scheduling_; }
   SessionCounters counters() const;
   std::optional<ExchangeCounters> peer_counters(PeerId id) const;
   std::optional<LinkState> link_state(PeerId id) const;
@@ -163,7 +177,7 @@ class Session {
   };
   static constexpr size_t kReceiveSlotSize = 512;  // LinUDP replies are <= 64 bytes
 
-  Session(transport::UdpSocket socket, const Clock& clock);
+  Session(transport::UdpSocket socket, const Clock& clock, transport::ThreadScheduling scheduling);
   void Run();
   // Pops every timer due by `now`: time-outs and cyclic sends.
   void FireTimersLocked(TimePoint now);
@@ -179,12 +193,16 @@ class Session {
   void ArmLocked(Peer& p, TimePoint now);
   void HandleDatagramLocked(const transport::DatagramSlot& d, TimePoint now);
   void SetLinkLocked(Peer& p, LinkState to);
-  // Closes the cycle periods of `p` that ended by `now` (ExchangeCounters::cycles/late_cycles).
-  static void RollPeriodsLocked(Peer& p, TimePoint now);
+  // Closes the cycle periods of `p` that ended by `now` (ExchangeCounters::cycles/late_cycles,
+  // late_cycles_stalled against the last I/O stall).
+  void RollPeriodsLocked(Peer& p, TimePoint now);
+  // Counts a stall of the I/O thread over [from, until] (decision 1312).
+  void NoteStallLocked(TimePoint from, TimePoint until);
 
   const Clock& clock_;
   transport::UdpSocket socket_;
   const transport::Endpoint local_;
+  const transport::ThreadScheduling scheduling_;
   const TimePoint epoch_;  // grid origin: every peer's periods start on a kGridTick boundary
   mutable std::mutex mu_;  // registrations, peer state, counters; held during peer callbacks
   bool stopping_ = false;
@@ -193,6 +211,10 @@ class Session {
   std::unordered_map<transport::Endpoint, Peer*> by_remote_;
   std::vector<Timer> timers_;  // min-heap on due, guarded by mu_
   SessionCounters counters_;
+  // The last stall of the I/O thread (guarded by mu_): from the moment it should have woken to
+  // the moment it did. Empty (from == until) before the first.
+  TimePoint stall_from_{};
+  TimePoint stall_until_{};
   // I/O thread buffers, reused every turn (guarded by mu_; the cycle allocates nothing).
   std::vector<Outgoing> outgoing_;
   std::vector<transport::OutgoingDatagram> outgoing_views_;
@@ -213,9 +235,12 @@ class Session {
 class SessionPool {
  public:
   static SessionPool& Instance();
-  // The live session bound to `local`, or a newly opened one (bind errors name the address).
-  absl::StatusOr<std::shared_ptr<Session>> Acquire(const transport::Endpoint& local,
-                                                   const Clock& clock);
+  // The live session bound to `local`, or a newly opened one (bind and scheduling errors name
+  // the address). FailedPrecondition when the live session runs its I/O thread with another
+  // `scheduling`: every drive sharing bind_host:master_port must ask for the same one.
+  absl::StatusOr<std::shared_ptr<Session>> Acquire(
+      const transport::Endpoint& local, const Clock& clock,
+      const transport::ThreadScheduling& scheduling = {});
 
  private:
   std::mutex mu_;

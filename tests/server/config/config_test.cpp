@@ -341,6 +341,53 @@ TEST(ParseConfigTest, LinUdpRanges_Checked) {
                   .ok());
 }
 
+// Decision 1311: real-time scheduling of the LinUDP I/O thread.
+TEST(ParseConfigTest, LinUdpIoScheduling_AppliedAndChecked) {
+  const std::string host = "host: 192.168.1.20";
+  auto cfg =
+      ParseConfig(OneDriveWith(host, host + "\n      io_priority: 50\n      io_cpus: [1, 3]"));
+  ASSERT_TRUE(cfg.ok()) << cfg.status();
+  EXPECT_EQ(cfg->drives[0].linudp->io_priority, 50);
+  EXPECT_EQ(cfg->drives[0].linudp->io_cpus, (std::vector<int>{1, 3}));
+  auto defaults = ParseConfig(kOneDrive);
+  ASSERT_TRUE(defaults.ok());
+  EXPECT_EQ(defaults->drives[0].linudp->io_priority, 0);
+  EXPECT_TRUE(defaults->drives[0].linudp->io_cpus.empty());
+  auto with = [&](const std::string& line) {
+    return Message(OneDriveWith(host, absl::StrCat(host, "\n      ", line)));
+  };
+  EXPECT_THAT(with("io_priority: 100"), HasSubstr("drives[0].linudp.io_priority: 100 exceeds 99"));
+  EXPECT_THAT(with("io_priority: -1"), HasSubstr("drives[0].linudp.io_priority: -1 is below 0"));
+  EXPECT_THAT(with("io_cpus: 1"), HasSubstr("drives[0].linudp.io_cpus: expected a sequence"));
+  EXPECT_THAT(with("io_cpus: [0, x]"),
+              HasSubstr("drives[0].linudp.io_cpus[1]: 'x' is not an integer"));
+  EXPECT_THAT(with("io_cpus: [2, 2]"),
+              HasSubstr("drives[0].linudp.io_cpus[1]: CPU 2 is given twice"));
+  EXPECT_THAT(with("io_cpus: [1024]"),
+              HasSubstr("drives[0].linudp.io_cpus[0]: 1024 is outside 0..1023"));
+}
+
+// One I/O thread serves every drive of a master socket: their scheduling must agree.
+TEST(ParseConfigTest, LinUdpIoScheduling_SharedMasterSocketMustAgree) {
+  const std::string two = R"(
+drives:
+  - name: x1
+    family: linmot
+    linudp: {host: 10.0.0.1, io_priority: 40}
+    axis: {min_mm: 0, max_mm: 150, max_velocity_mm_s: 2000, max_acceleration_mm_s2: 20000}
+  - name: x2
+    family: linmot
+    linudp: {host: 10.0.0.2, io_priority: PRIO}
+    axis: {min_mm: 0, max_mm: 150, max_velocity_mm_s: 2000, max_acceleration_mm_s2: 20000}
+)";
+  EXPECT_TRUE(ParseConfig(absl::StrReplaceAll(two, {{"PRIO", "40"}})).ok());
+  EXPECT_THAT(Message(absl::StrReplaceAll(two, {{"PRIO", "0"}})),
+              HasSubstr("drives[1].linudp: io_priority/io_cpus differ from drives[0], which "
+                        "shares master socket 0.0.0.0:41136"));
+  // Another master port is another socket and thread.
+  EXPECT_TRUE(ParseConfig(absl::StrReplaceAll(two, {{"PRIO", "0, master_port: 41137"}})).ok());
+}
+
 TEST(ParseConfigTest, Timeouts_Checked) {
   const std::string tail = "max_acceleration_mm_s2: 20000";
   auto with = [&](const std::string& block) {

@@ -520,6 +520,15 @@ TEST(CreateLinMotUdpDrive, MissingOrBadConfig_InvalidArgumentNamingField) {
   c.linudp->cycle = 0ms;
   EXPECT_THAT(CreateLinMotUdpDrive(c, SteadyClock::Instance()).status().message(),
               HasSubstr(".linudp.cycle"));
+  // Decision 1311: the I/O thread's scheduling is checked before anything is opened.
+  c.linudp = LinUdpConfig{};
+  c.linudp->io_priority = 100;
+  EXPECT_THAT(CreateLinMotUdpDrive(c, SteadyClock::Instance()).status().message(),
+              HasSubstr("drive 'x9'.linudp.io_priority: 100 is outside 0..99"));
+  c.linudp = LinUdpConfig{};
+  c.linudp->io_cpus = {0, 0};
+  EXPECT_THAT(CreateLinMotUdpDrive(c, SteadyClock::Instance()).status().message(),
+              HasSubstr("drive 'x9'.linudp.io_cpus[1]: CPU 0 is given twice"));
   c.linudp = LinUdpConfig{};
   auto ok = CreateLinMotUdpDrive(c, SteadyClock::Instance());
   ASSERT_TRUE(ok.ok());

@@ -409,6 +409,55 @@ TEST(Session, Cycles_AnsweringDriveMeetsPeriods) {
   EXPECT_LE(c.telegrams_sent, c.cycles + 1);
 }
 
+// Real time plus an offset the test can jump: to the session, a jump looks exactly like its I/O
+// thread being held off the CPU for that long.
+class JumpingClock final : public Clock {
+ public:
+  TimePoint Now() const override {
+    return SteadyClock::Instance().Now() + Duration(offset_.load(std::memory_order_relaxed));
+  }
+  void Jump(Duration d) { offset_.fetch_add(d.count(), std::memory_order_relaxed); }
+
+ private:
+  std::atomic<Duration::rep> offset_{0};
+};
+
+// Decision 1312: periods lost while the I/O thread was not running are counted apart, as
+// late_cycles_stalled, and the stall itself in io_stalls.
+TEST(Session, Cycles_ThreadStall_LatePeriodsCountedAsStalled) {
+  ScriptedDrive drive;
+  TestPeer peer;
+  JumpingClock clock;
+  auto opened = Session::Open(Endpoint{Endpoint::kLoopback, 0}, clock);
+  ASSERT_TRUE(opened.ok()) << opened.status();
+  std::shared_ptr<Session> session = *opened;
+  auto id = session->Register(Options(drive, 2ms), &peer);
+  ASSERT_TRUE(id.ok());
+  ASSERT_TRUE(peer.WaitReplies(5));
+  const ExchangeCounters before = *session->peer_counters(*id);
+  const uint64_t stalls_before = session->counters().io_stalls;
+  // Ten 2 ms periods pass without the thread running. A jump that lands while the thread is
+  // between two waits (µs of processing) is indistinguishable from the thread being busy and is
+  // not a stall; then jump again.
+  for (int attempt = 0; attempt < 5 && session->counters().io_stalls == stalls_before; ++attempt) {
+    clock.Jump(20ms);
+    std::this_thread::sleep_for(50ms);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  ExchangeCounters after = before;
+  while (std::chrono::steady_clock::now() < deadline &&
+         after.late_cycles_stalled - before.late_cycles_stalled < 9) {
+    std::this_thread::sleep_for(1ms);
+    after = *session->peer_counters(*id);
+  }
+  EXPECT_GE(after.late_cycles_stalled - before.late_cycles_stalled, 9u);
+  EXPECT_LE(after.late_cycles_stalled, after.late_cycles);
+  const SessionCounters sc = session->counters();
+  EXPECT_GE(sc.io_stalls, stalls_before + 1);
+  EXPECT_GE(sc.io_stalled_ms, 19.0);
+  session->Stop();
+}
+
 // Decision 006 with Expedite(peer): an urgent request leaves without waiting for a (here very
 // long) cycle.
 TEST(Session, Expedite_UrgentPeerSendsBeforeItsCycle) {
@@ -484,6 +533,35 @@ TEST(SessionPool, SameLocalEndpoint_SharedSession_PortZeroNever) {
   ASSERT_TRUE(e.ok()) << e.status();
   EXPECT_EQ((*e)->local_endpoint().port, port);
   (void)old;
+}
+
+// Decision 1311: one I/O thread per master socket, so drives sharing it must ask for the same
+// scheduling; a different one is refused, never silently replaced by the first drive's.
+TEST(SessionPool, SharedEndpoint_OtherScheduling_FailedPrecondition) {
+  auto& pool = SessionPool::Instance();
+  auto probe = pool.Acquire(Endpoint{Endpoint::kLoopback, 0}, SteadyClock::Instance());
+  ASSERT_TRUE(probe.ok());
+  const uint16_t port = (*probe)->local_endpoint().port;
+  probe->reset();
+  const Endpoint local{Endpoint::kLoopback, port};
+  const transport::ThreadScheduling pinned{0, {0}};
+  auto first = pool.Acquire(local, SteadyClock::Instance(), pinned);
+  ASSERT_TRUE(first.ok()) << first.status();
+  EXPECT_EQ((*first)->scheduling(), pinned);
+  auto same = pool.Acquire(local, SteadyClock::Instance(), pinned);
+  ASSERT_TRUE(same.ok());
+  EXPECT_EQ(first->get(), same->get());
+  auto other = pool.Acquire(local, SteadyClock::Instance(), {});
+  EXPECT_EQ(other.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(other.status().message().find("io_cpus=[0]"), std::string::npos) << other.status();
+}
+
+// A scheduling the system cannot give fails the open with the key named (no fallback).
+TEST(Session, Open_CpuNotOnline_InvalidArgumentNamesKey) {
+  auto s = Session::Open(Endpoint{Endpoint::kLoopback, 0}, SteadyClock::Instance(),
+                         transport::ThreadScheduling{0, {1023}});
+  EXPECT_EQ(s.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.status().message().find("io_cpus"), std::string::npos) << s.status();
 }
 
 TEST(SessionPool, PortHeldByAnotherSocket_BindErrorNamesAddress) {
