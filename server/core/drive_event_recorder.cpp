@@ -1,14 +1,10 @@
 // DriveEventRecorder: snapshot comparison per drive, rate-bounded audit entries.
 #include "server/core/drive_event_recorder.h"
 
-#include <pthread.h>
-#include <sched.h>
-
 #include <algorithm>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "adapters/core/log.h"
 #include "nlohmann/json.hpp"
 #include "server/core/audit.h"
 #include "server/core/call_context.h"
@@ -24,21 +20,6 @@ std::string StateJson(const DriveStatus& s) {
 }
 
 bool HasFault(const DriveStatus& s) { return s.fault.code != 0 || s.state == DriveState::kFault; }
-
-// Decision 1303: a watcher is woken by every published snapshot (three per acknowledged move),
-// and at the normal policy the woken thread preempts the publisher — the drive's I/O thread or a
-// gRPC thread in the middle of a command — on its own core. SCHED_BATCH keeps the fair share and
-// the nice level (the watcher still runs within the scheduler's latency period and never waits
-// behind idle-only work) but does not preempt on wake-up. Lowering a thread's own policy needs no
-// privilege; if it fails anyway, the watcher keeps running at the normal policy.
-void RunWithoutWakeupPreemption(const std::string& drive) {
-  pthread_setname_np(pthread_self(), kDriveEventsThreadName);
-  const sched_param param{};  // SCHED_BATCH has only priority 0
-  if (const int err = pthread_setschedparam(pthread_self(), SCHED_BATCH, &param); err != 0) {
-    log::Warn("drive_events_sched_batch_failed",
-              log::Fields().Add("drive", drive).Add("errno", err));
-  }
-}
 
 }  // namespace
 
@@ -150,7 +131,6 @@ void DriveEventRecorder::Watch(const std::shared_ptr<Drive>& drive) {
   who.transport = "drive";
   DriveStatus last;  // a drive starts OFFLINE (DriveStatus's default)
   EventBudget budget(kMaxEventsPerWindow, kWindow, std::chrono::steady_clock::now());
-  RunWithoutWakeupPreemption(name);
   while (!stop_.load()) {
     DriveStatus s = drive->WaitForStatus(last.sequence, std::chrono::steady_clock::now() + kSlice);
     if (stop_.load()) break;

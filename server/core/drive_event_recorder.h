@@ -55,9 +55,6 @@ class EventBudget {
   int64_t suppressed_ = 0;
 };
 
-// The name of every watcher thread (at most 15 characters, pthread_setname_np).
-inline constexpr char kDriveEventsThreadName[] = "drive-events";
-
 class DriveEventRecorder {
  public:
   // Recorded per drive and window before further events are only counted (a flapping link must
@@ -65,10 +62,9 @@ class DriveEventRecorder {
   static constexpr int kMaxEventsPerWindow = 20;
   static constexpr std::chrono::seconds kWindow{60};
 
-  // Starts one watcher thread per drive, named kDriveEventsThreadName and run at SCHED_BATCH
-  // (decision 1303); each sleeps in Drive::WaitForStatus between snapshots. `audit` (not null) must
-  // outlive the recorder; drives stay alive through the shared pointers. Drives start OFFLINE, so
-  // the first snapshot with a link is "drive.online".
+  // Starts one watcher thread per drive; each sleeps in Drive::WaitForStatus between
+  // snapshots. `audit` (not null) must outlive the recorder; drives stay alive through the
+  // shared pointers. Drives start OFFLINE, so the first snapshot with a link is "drive.online".
   DriveEventRecorder(std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit);
   ~DriveEventRecorder();
   DriveEventRecorder(const DriveEventRecorder&) = delete;

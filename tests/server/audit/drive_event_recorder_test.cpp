@@ -5,14 +5,9 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <sched.h>
 
 #include <chrono>
-#include <filesystem>
-#include <fstream>
 #include <memory>
-#include <string>
-#include <vector>
 
 #include "adapters/core/clock.h"
 #include "adapters/linmot/linudp/factory.h"
@@ -179,22 +174,6 @@ TEST_F(DriveEventRecorderTest, OnlineHomedFaultOffline_RecordedAsTheDrive) {
   recorder_->Stop();
   const storage::AuditVerifyReport v = VerifyOrDie();
   EXPECT_TRUE(v.ok);
-}
-
-// Decision 1303: the watcher must not preempt the publishing thread on every snapshot, so it runs
-// at SCHED_BATCH — and still records (the test above runs with the same recorder).
-TEST_F(DriveEventRecorderTest, WatcherThreadRunsAtSchedBatch) {
-  ASSERT_TRUE(WaitForAction("drive.online").has_value());  // the watcher has started
-  std::vector<int> policies;
-  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
-    std::ifstream comm(task.path() / "comm");
-    std::string name;
-    std::getline(comm, name);
-    if (name != kDriveEventsThreadName) continue;
-    policies.push_back(sched_getscheduler(std::stoi(task.path().filename().string())));
-  }
-  ASSERT_EQ(policies.size(), 1u) << "one watcher per drive";
-  EXPECT_EQ(policies[0], SCHED_BATCH);
 }
 
 }  // namespace
