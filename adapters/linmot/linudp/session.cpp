@@ -16,11 +16,8 @@ namespace {
 
 // Upper bound of one wait of the I/O thread with nothing scheduled; Register and Stop wake it.
 constexpr Duration kIdleWait = std::chrono::milliseconds(200);
-// Every peer's cycle periods start on this grid (relative to the session's epoch), so that
-// drives registered at slightly different moments share due times: the I/O thread then wakes a
-// few times per cycle and sends each group with one sendmmsg instead of waking once per drive
-// (issue 10, P2). The first telegram still leaves at once (Register).
-constexpr Duration kGridTick = std::chrono::microseconds(250);
+// The fixed send grid (Session::kGridTick, header).
+constexpr Duration kGridTick = Session::kGridTick;
 // A wake-up of the I/O thread later than this after it was due is a stall of the thread (the
 // host held it off the CPU), counted apart from the exchange's own late periods (decision 1312):
 // a quarter of the 2 ms cycle of issue 10 (P2), well above the tens of µs of a normal wake-up.

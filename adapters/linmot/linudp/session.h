@@ -97,6 +97,14 @@ using PeerId = uint64_t;
 
 class Session {
  public:
+  // Every peer's cycle periods start on this grid (relative to the session's epoch), so that
+  // drives registered at slightly different moments share due times: the I/O thread then wakes
+  // a few times per cycle and sends each group with one sendmmsg instead of waking once per
+  // drive (issue 10, P2). The first telegram still leaves at once (Register), so its period
+  // began up to one tick earlier: period k's telegram leaves at most one tick before
+  // registration + k cycles.
+  static constexpr Duration kGridTick = std::chrono::microseconds(250);
+
   // Binds `local` and starts the I/O thread with `scheduling` (linudp.io_priority / io_cpus,
   // decision 1311). `clock` must advance in real time (the socket waits in real time) and
   // outlive the session. A scheduling the system refuses fails the open (PermissionDenied
