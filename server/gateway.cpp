@@ -9,6 +9,7 @@
 #include <atomic>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <thread>
 
 #include "absl/strings/numbers.h"
@@ -455,7 +456,10 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
     std::map<std::string, std::string> families;
     for (const auto& d : impl->drives) families[d->config().name] = d->config().family;
     std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
-    impl->rpc_metrics = std::make_unique<ops::RpcMetrics>(ops::DefaultRegistry(), std::move(families));
+    std::set<std::string, std::less<>> raw_methods(std::begin(DriveServiceGrpc::kRawMethods),
+                                                   std::end(DriveServiceGrpc::kRawMethods));
+    impl->rpc_metrics = std::make_unique<ops::RpcMetrics>(ops::DefaultRegistry(), std::move(families),
+                                                          std::move(raw_methods));
     creators.push_back(ops::MakeRpcMetricsFactory(*impl->rpc_metrics));
     builder.experimental().SetInterceptorCreators(std::move(creators));
   }

@@ -12,7 +12,9 @@ WatchStream::Step WatchStream::NextLocked() {
   if (finished_ || writing_ || output_ == nullptr) return {};
   if (cancelled_ || source_->Ended()) {
     finished_ = true;
-    return {Action::kFinish, output_, nullptr};
+    return {Action::kFinish, output_, nullptr,
+            cancelled_ ? absl::CancelledError("WatchDrives: the client cancelled or went away")
+                       : absl::OkStatus()};
   }
   if (pending_.empty()) return {};
   current_ = std::move(pending_.front());
@@ -28,7 +30,7 @@ void WatchStream::Run(const Step& step) noexcept {
       step.output->StartWrite(step.message);
       break;
     case Action::kFinish:
-      step.output->Finish(absl::OkStatus());
+      step.output->Finish(step.status);
       break;
     case Action::kNone:
       break;

@@ -25,7 +25,8 @@ class WatchSource {
   virtual ~WatchSource() = default;
   // Appends the snapshots to send now (changed ones only, at most one per drive).
   virtual void Next(std::vector<SharedDriveStatus>& out) = 0;
-  // True once the source ends every stream (server shutdown): the stream finishes OK.
+  // True once the source ends every stream (server shutdown): the stream finishes OK (unless
+  // the client had already gone: CANCELLED).
   virtual bool Ended() const noexcept = 0;
 };
 
@@ -48,7 +49,8 @@ class WatchStream final : public WatchTicker::Client {
   bool Tick() noexcept override;
   // Output: the write started last has completed (`ok` false: the client is gone).
   void WriteDone(bool ok) noexcept;
-  // Output: the client cancelled or the deadline passed; finishes once no write is in flight.
+  // Output: the client cancelled or the deadline passed; finishes (CANCELLED, so per-RPC metrics
+  // tell an abandoned watch from one the server ended) once no write is in flight.
   void Cancel() noexcept;
   // Output: the transport is gone; the stream never calls it again.
   void Detach() noexcept;
@@ -59,6 +61,7 @@ class WatchStream final : public WatchTicker::Client {
     Action action = Action::kNone;
     Output* output = nullptr;  // read under mu_: Detach clears it
     SharedDriveStatus message;
+    absl::Status status;  // kFinish: how the stream ends
   };
   // Under mu_: what to do next given the state; marks the write or the finish as started.
   Step NextLocked();

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <string_view>
 
 #include "drivegw/v1/drive.grpc.pb.h"
 #include "server/core/drive_service.h"
@@ -18,6 +19,10 @@ namespace drivegw::server {
 class DriveServiceGrpc final : public v1::DriveService::WithRawCallbackMethod_WatchDrives<
                                    v1::DriveService::CallbackService> {
  public:
+  // The full names of the methods this service registers raw, for whoever inspects messages by
+  // method (ops::RpcMetrics must not read a ByteBuffer as a protobuf Message).
+  static constexpr std::string_view kRawMethods[] = {"/drivegw.v1.DriveService/WatchDrives"};
+
   // `idempotency` may be null (no idempotent retries, decision 020).
   // Every call is authorised by `auth` (decision 015).
   DriveServiceGrpc(DriveServiceCore& core, WorkerPool& pool, const CallAuth& auth,

@@ -6,6 +6,7 @@
 #include <grpcpp/server_context.h>
 
 #include <chrono>
+#include <utility>
 
 #include "absl/strings/match.h"
 
@@ -81,7 +82,7 @@ class RpcMetricsInterceptor final : public gx::Interceptor {
     } else {
       method_ = std::string(full);
     }
-    raw_ = full == "/drivegw.v1.DriveService/WatchDrives";
+    raw_ = metrics.IsRawMethod(full);
   }
 
   void Intercept(gx::InterceptorBatchMethods* m) override {
@@ -89,8 +90,8 @@ class RpcMetricsInterceptor final : public gx::Interceptor {
       ReadTransport(m);
     }
     // Only drivegw's own services are known to carry generated protobuf messages; others (the
-    // health service) and drivegw's raw methods receive ByteBuffers. WatchDrives is raw
-    // (decision 1341) and its request has no `name` anyway (`names`).
+    // health service) and drivegw's raw methods (RpcMetrics::IsRawMethod; WatchDrives, decision
+    // 1341) receive ByteBuffers.
     if (m->QueryInterceptionHookPoint(gx::InterceptionHookPoints::POST_RECV_MESSAGE) &&
         drive_ == nullptr && absl::StartsWith(service_, "drivegw.") && !raw_) {
       ReadDrive(static_cast<const google::protobuf::Message*>(m->GetRecvMessage()));
@@ -162,8 +163,11 @@ class Factory final : public gx::ServerInterceptorFactoryInterface {
 
 }  // namespace
 
-RpcMetrics::RpcMetrics(Registry& registry, std::map<std::string, std::string> drive_families)
-    : registry_(registry), drive_families_(drive_families.begin(), drive_families.end()) {}
+RpcMetrics::RpcMetrics(Registry& registry, std::map<std::string, std::string> drive_families,
+                       std::set<std::string, std::less<>> raw_methods)
+    : registry_(registry),
+      drive_families_(drive_families.begin(), drive_families.end()),
+      raw_methods_(std::move(raw_methods)) {}
 
 const std::pair<const std::string, std::string>* RpcMetrics::FindDrive(
     std::string_view name_field) const {

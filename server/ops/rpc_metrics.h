@@ -12,6 +12,7 @@
 #include <atomic>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <string_view>
 
@@ -23,8 +24,16 @@ namespace drivegw::ops {
 // so both write exactly the same series. `registry` must outlive it.
 class RpcMetrics {
  public:
-  // `drive_families`: drive name -> family, for the per-drive series.
-  RpcMetrics(Registry& registry, std::map<std::string, std::string> drive_families);
+  // `drive_families`: drive name -> family, for the per-drive series. `raw_methods`: the full
+  // names ("/package.Service/Method") of methods a service registered as raw (ByteBuffer), whose
+  // messages are no protobuf Message and are therefore never read for a drive name; the
+  // service that marks them raw hands them over (DriveServiceGrpc::kRawMethods).
+  RpcMetrics(Registry& registry, std::map<std::string, std::string> drive_families,
+             std::set<std::string, std::less<>> raw_methods = {});
+
+  bool IsRawMethod(std::string_view full_method) const {
+    return raw_methods_.find(full_method) != raw_methods_.end();
+  }
 
   // The configured drive a request's `name` field names ("drives/x1" or "x1"): its name and
   // family, or nullptr.
@@ -59,6 +68,7 @@ class RpcMetrics {
  private:
   Registry& registry_;
   std::map<std::string, std::string, std::less<>> drive_families_;
+  std::set<std::string, std::less<>> raw_methods_;
 };
 
 // The interceptor factory over `metrics` (which must outlive the server).

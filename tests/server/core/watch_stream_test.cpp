@@ -206,7 +206,7 @@ TEST(WatchStreamTest, Cancel_WriteInFlight_FinishesAfterTheWrite) {
   f.out.Complete(false);
   EXPECT_TRUE(f.out.finished());
   ASSERT_TRUE(f.out.status().has_value());
-  EXPECT_TRUE(f.out.status()->ok());
+  EXPECT_EQ(f.out.status()->code(), absl::StatusCode::kCancelled);
   f.source->Push(Snap("x1", 2));
   EXPECT_FALSE(f.stream->Tick()) << "the ticker drops a finished stream";
   EXPECT_EQ(f.out.writes(), 1u);
@@ -219,6 +219,7 @@ TEST(WatchStreamTest, WriteDone_NotOk_FinishesWithoutCancel) {
   f.stream->Tick();
   f.out.Complete(false);  // the client is gone
   EXPECT_TRUE(f.out.finished());
+  EXPECT_EQ(f.out.status()->code(), absl::StatusCode::kCancelled);
   EXPECT_EQ(f.out.writes(), 1u);
 }
 

@@ -11,12 +11,14 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <map>
 #include <random>
 #include <regex>
 #include <sstream>
 #include <string>
 #include <thread>
 
+#include "drivegw/v1/drive.grpc.pb.h"
 #include "server/gateway.h"
 #include "tests/e2e/http_client.h"
 #include "tests/server/ops/exposition_parser.h"
@@ -165,6 +167,59 @@ TEST_F(OpsGatewayTest, Metrics_AfterMoveOverRest_DriveAndRpcCountsParsed) {
             0);
   // The move was audited: the audit write latency histogram has observations.
   EXPECT_GE(e.Sum("drivegw_audit_write_seconds_count"), 1);
+}
+
+// WatchDrives is a raw (ByteBuffer) method (decision 1341): the metrics interceptor learns that
+// from the service and counts the stream without reading its messages as protobuf Messages.
+TEST_F(OpsGatewayTest, Metrics_WatchDrivesRawStream_CountedWithItsStatus) {
+  auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(gw_->grpc_port()),
+                                     grpc::InsecureChannelCredentials());
+  auto stub = v1::DriveService::NewStub(channel);
+  {
+    grpc::ClientContext ctx;
+    v1::WatchDrivesRequest req;
+    req.add_names("drives/x1");
+    req.set_max_rate_hz(50);
+    auto reader = stub->WatchDrives(&ctx, req);
+    v1::DriveStatus st;
+    ASSERT_TRUE(reader->Read(&st));
+    EXPECT_EQ(st.name(), "drives/x1");
+    ctx.TryCancel();
+    while (reader->Read(&st)) {
+    }
+    EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  }
+  {
+    // An unknown drive ends the stream with NOT_FOUND, counted under that code.
+    grpc::ClientContext ctx;
+    v1::WatchDrivesRequest req;
+    req.add_names("drives/nope");
+    auto reader = stub->WatchDrives(&ctx, req);
+    v1::DriveStatus st;
+    EXPECT_FALSE(reader->Read(&st));
+    EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::NOT_FOUND);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  ops::test_support::ParsedExposition e;
+  for (;;) {
+    e = Scrape();
+    const std::map<std::string, std::string> watch = {
+        {"service", "drivegw.v1.DriveService"}, {"method", "WatchDrives"}, {"transport", "grpc"}};
+    std::map<std::string, std::string> cancelled = watch, not_found = watch;
+    cancelled["code"] = "CANCELLED";
+    not_found["code"] = "NOT_FOUND";
+    if ((e.Sum("drivegw_rpc_requests_total", cancelled) >= 1 &&
+         e.Sum("drivegw_rpc_requests_total", not_found) >= 1) ||
+        std::chrono::steady_clock::now() > deadline) {
+      EXPECT_GE(e.Sum("drivegw_rpc_requests_total", cancelled), 1)
+          << "WatchDrives calls of any code: " << e.Sum("drivegw_rpc_requests_total", watch);
+      EXPECT_EQ(e.Sum("drivegw_rpc_requests_total", not_found), 1);
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  // No per-drive series from a raw stream (its request names drives only in `names`).
+  EXPECT_EQ(e.Sum("drivegw_drive_requests_total", {{"method", "WatchDrives"}}), 0);
 }
 
 TEST_F(OpsGatewayTest, Readyz_AfterStart_200_AndHealthPerService) {
