@@ -802,6 +802,7 @@ LinMotDnDevice::SlotResult LinMotDnDevice::ExecuteSlot(dn::CommandSlot slot, dn:
     return result;
   }
   ++commands_executed_;
+  ++executed_by_id_[spec.id];
   if (reset) {
     result.reset_controller = true;  // seed line 984: no response at all
     return result;
@@ -1115,6 +1116,7 @@ DeviceSnapshot LinMotDnDevice::Snapshot() const {
   }
   s.messages_consumed = messages_consumed_;
   s.commands_executed = commands_executed_;
+  s.executed_by_id = executed_by_id_;
   s.coded_errors_raised = coded_errors_raised_;
   s.toggle_commands_ignored = toggle_commands_ignored_;
   s.direct_gets_ignored = direct_gets_ignored_;

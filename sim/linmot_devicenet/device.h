@@ -220,6 +220,7 @@ class LinMotDnDevice final : public IoApplication {
   // Counters.
   uint64_t messages_consumed_ = 0;
   uint64_t commands_executed_ = 0;
+  std::array<uint64_t, 256> executed_by_id_{};  // per command ID (recovery tests, decision 1451)
   uint64_t coded_errors_raised_ = 0;
   uint64_t toggle_commands_ignored_ = 0;
   uint64_t direct_gets_ignored_ = 0;

@@ -66,6 +66,9 @@ struct DeviceSnapshot {
   std::array<MotorSnapshot, 4> motors{};
   uint64_t messages_consumed = 0;
   uint64_t commands_executed = 0;
+  // Executed commands per §8.4 command ID: what a master made the drive do, read by the
+  // recovery tests to prove no motion command or set point was re-sent (decision 1451).
+  std::array<uint64_t, 256> executed_by_id{};
   uint64_t coded_errors_raised = 0;
   uint64_t toggle_commands_ignored = 0;  // T equal to the Command Toggle (D-4)
   uint64_t direct_gets_ignored = 0;      // D-20

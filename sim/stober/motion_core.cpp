@@ -177,7 +177,10 @@ void MotionCore::Step() {
     const auto command = static_cast<Command>(static_cast<int>(Get("I401")));
     // MC_DoNothing: no motion, no status, motion ID unchanged (L135); a running command
     // continues (G-12, decision 1148). Others start at once or are buffered (I409, 1162).
-    if (command != Command::kDoNothing) OnExecuteEdge(command);
+    if (command != Command::kDoNothing) {
+      ++execute_edges_;
+      OnExecuteEdge(command);
+    }
   }
   UpdateContinuousInputs();
   Integrate();

@@ -144,6 +144,10 @@ class MotionCore {
 
   // --- Observation --------------------------------------------------------------------------
   uint64_t cycle() const { return cycle_; }
+  // Rising edges of Execute I402 with a command other than MC_DoNothing since power-up, started,
+  // buffered or denied alike: the record the recovery tests read to prove that a master sent no
+  // motion command (docs/reliability.md "Safe recovery", decision 1451).
+  uint64_t execute_edges() const { return execute_edges_; }
   PowerState power_state() const { return power_.state(); }
   bool brake_engaged() const { return brake_engaged_; }
   double set_acceleration() const { return set_.acceleration; }
@@ -281,6 +285,7 @@ class MotionCore {
   PowerStateMachine power_;
   std::map<ParamId, double> values_;
   uint64_t cycle_ = 0;
+  uint64_t execute_edges_ = 0;
 
   // Inputs of the cycle.
   uint16_t control_word_ = 0;
