@@ -567,5 +567,102 @@ TEST(StoberFactory, ChecksNameTheField) {
   EXPECT_TRUE(CreateStoberDrive(c, SteadyClock::Instance()).ok());
 }
 
+// ---- Safe recovery (issue 11, decision 1451) ---------------------------------------------------
+// stober-motion.md §1.1/§2.2: a command starts only on a rising edge of Execute I402, with the
+// inputs I401/I403.. latched at that edge; CiA 402 (§3): enabling (Shutdown -> Switch on ->
+// Enable operation) starts nothing by itself. The motion core counts every Execute edge with a
+// command; from the loss to the re-enable that count and the position must not change.
+
+class StoberRecoveryTest : public StoberDriveTest {
+ protected:
+  uint64_t Edges() {
+    uint64_t n = 0;
+    server_->WithAxis([&](ss::MotionCore& c) { n = c.execute_edges(); });
+    return n;
+  }
+  bool SimMoving() {
+    double v = 0;
+    server_->WithAxis([&](ss::MotionCore& c) { v = *c.Read(P("I88")); });
+    return v != 0;
+  }
+  void WaitSimStill() {
+    const auto deadline = std::chrono::steady_clock::now() + 10s;
+    while (SimMoving() && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(2ms);
+    }
+    ASSERT_FALSE(SimMoving());
+  }
+  // Acknowledge when needed, enable, let 30 more frames of the node reach the master: no Execute
+  // edge, the axis where the drive left it; a new command then moves it (one more edge).
+  void ReEnableAndExpectNothingResent(uint64_t edges, double position) {
+    if (drive_->GetStatus().state == DriveState::kFault) {
+      auto ack = drive_->AcknowledgeFault();
+      ASSERT_TRUE(ack.ok()) << ack.status();
+    }
+    Enable();
+    const uint64_t from = drive_->link_health().replies;
+    const auto deadline = std::chrono::steady_clock::now() + 10s;
+    while (drive_->link_health().replies < from + 30 &&
+           std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(2ms);
+    }
+    EXPECT_GE(drive_->link_health().replies, from + 30);
+    EXPECT_EQ(Edges(), edges) << "Execute edge after the recovery";
+    EXPECT_FALSE(SimMoving());
+    EXPECT_NEAR(SimPosition(), position, 0.001);  // 0.001 u on the wire (decision 1172)
+    EXPECT_EQ(WaitFinal(Move(MoveAbsolute{position - 20, 500, 5000, 5000}).id).state,
+              CommandState::kDone);
+    EXPECT_EQ(Edges(), edges + 1);
+  }
+};
+
+TEST_F(StoberRecoveryTest, HeartbeatLossMidMove_ReEnableSendsNoStaleTarget) {
+  Start();
+  Enable();
+  Referenced();
+  Move(MoveAbsolute{150, 100, 1000, 1000});
+  WaitUntil([](const DriveStatus& s) { return s.position_mm > 2; });
+  server_->SetHeartbeatLoss(true);
+  ASSERT_EQ(WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kOffline; }).state,
+            DriveState::kOffline);
+  WaitSimStill();
+  const uint64_t edges = Edges();
+  const double rest = SimPosition();
+  server_->SetHeartbeatLoss(false);
+  ASSERT_NE(WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; }).state,
+            DriveState::kOffline);
+  ReEnableAndExpectNothingResent(edges, rest);
+}
+
+TEST_F(StoberRecoveryTest, RebootAfterMove_ReEnableSendsNoStaleTarget) {
+  Start();
+  Enable();
+  Referenced();
+  EXPECT_EQ(WaitFinal(Move(MoveAbsolute{60, 500, 5000, 5000}).id).state, CommandState::kDone);
+  server_->Reboot();
+  const uint64_t edges = Edges();  // the rebooted motion core's count, before any master frame
+  ASSERT_NE(WaitUntil([&](const DriveStatus& s) {
+              return s.state != DriveState::kOffline && drive_->counters().configurations >= 2;
+            }).state,
+            DriveState::kOffline);
+  ReEnableAndExpectNothingResent(edges, SimPosition());
+}
+
+TEST_F(StoberRecoveryTest, FaultMidMoveThenAcknowledge_ReEnableSendsNoStaleTarget) {
+  Start();
+  Enable();
+  Referenced();
+  const CommandInfo m = Move(MoveAbsolute{150, 100, 1000, 1000});
+  WaitUntil([](const DriveStatus& s) { return s.position_mm > 2; });
+  server_->InjectFollowingError();
+  EXPECT_EQ(WaitFinal(m.id).state, CommandState::kError);
+  ASSERT_EQ(WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kFault; }).state,
+            DriveState::kFault);
+  WaitSimStill();
+  const double rest = SimPosition();
+  EXPECT_LT(rest, 149);
+  ReEnableAndExpectNothingResent(Edges(), rest);
+}
+
 }  // namespace
 }  // namespace drivegw::stober

@@ -841,5 +841,120 @@ TEST_F(TrinamicCanDriveTest, DuplicateAddress_ReportedAsFault) {
   b->Stop();
 }
 
+// ---- Safe recovery (issue 11, decision 1451) ---------------------------------------------------
+// The PACK executes every word it receives and stores nothing across a reset (trinamic-sixpack.md
+// §2.8, G-24: after `$CC`/power loss the registers and posact are at their reset values): a word
+// that starts or redirects motion or rewrites posact after a link loss, a reset or a fault
+// acknowledge would move the axis (or its idea of where it is) without a new command. The server's
+// word trace from the loss to the re-enable must hold none of them.
+
+class TrinamicRecoveryTest : public TrinamicDriveTest {
+ protected:
+  // `$22` reference search, `$23` ramp, `$24` PI, `$25` rotation, `$26` set target, `$27` set
+  // position, `$29` parallel ramp, `$50` interpolate (§4.1).
+  static bool IsMotionWord(const Bytes& w) {
+    switch (w[1]) {
+      case 0x22:
+      case 0x23:
+      case 0x24:
+      case 0x25:
+      case 0x26:
+      case 0x27:
+      case 0x29:
+      case 0x50:
+        return true;
+      default:
+        return false;
+    }
+  }
+  size_t MotionWords() {
+    const auto words = server_->words();
+    return static_cast<size_t>(std::count_if(words.begin(), words.end(), IsMotionWord));
+  }
+  bool SimMoving() {
+    return Sim<bool>(
+        [](Controller& c) { return c.state(0).action != sim::trinamic::Action::kInactive; });
+  }
+  void WaitSimStill() {
+    const auto deadline = std::chrono::steady_clock::now() + 10s;
+    while (SimMoving() && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(2ms);
+    }
+    ASSERT_FALSE(SimMoving());
+  }
+  // Re-enable after the recovery, let 20 polls go both ways: no motion word on the wire, the
+  // axis where the drive left it; a new command then moves it (and shows up in the trace).
+  void ReEnableAndExpectNothingResent(Drive* d, int32_t position) {
+    if (d->GetStatus().state == DriveState::kFault) {
+      auto ack = d->AcknowledgeFault();
+      ASSERT_TRUE(ack.ok()) << ack.status();
+    }
+    Enable(d);
+    for (int i = 0; i < 20; ++i) Settle();
+    EXPECT_EQ(MotionWords(), 0u) << ::testing::PrintToString(server_->words());
+    EXPECT_FALSE(SimMoving());
+    EXPECT_EQ(SimPosition(0), position);
+    EXPECT_EQ(MoveDone(d, MoveAbsolute{position + 500.0, 3000, 30000, 0}).state,
+              CommandState::kDone);
+    EXPECT_GT(MotionWords(), 0u);
+  }
+};
+
+TEST_F(TrinamicRecoveryTest, SilentMidMove_ReEnableSendsNoStaleTarget) {
+  StartSim();
+  Drive* d = Activate(Config());
+  ASSERT_NE(d, nullptr);
+  Enable(d);
+  auto running = d->Move(MoveAbsolute{3000, 3000, 30000, 0});
+  ASSERT_TRUE(running.ok()) << running.status();
+  server_->SetSilent(true);
+  ASSERT_EQ(
+      WaitUntil(d, [](const DriveStatus& s) { return s.state == DriveState::kOffline; }).state,
+      DriveState::kOffline);
+  WaitSimStill();  // the PACK finishes the ramp on its own
+  const int32_t rest = SimPosition(0);
+  server_->ClearWords();
+  server_->SetSilent(false);
+  ASSERT_NE(WaitUntil(
+                d, [](const DriveStatus& s) { return s.state != DriveState::kOffline; }, 8000ms)
+                .state,
+            DriveState::kOffline);
+  ReEnableAndExpectNothingResent(d, rest);
+}
+
+TEST_F(TrinamicRecoveryTest, ControllerResetAfterMove_ReEnableSendsNoStaleTarget) {
+  StartSim();
+  Drive* d = Activate(Config());
+  ASSERT_NE(d, nullptr);
+  Enable(d);
+  ASSERT_EQ(MoveDone(d, MoveAbsolute{1200, 3000, 30000, 0}).state, CommandState::kDone);
+  server_->WithController([](Controller& c) { c.Reset(); });  // power loss: posact 0 (G-24)
+  server_->ClearWords();
+  // The drive notices the reset flag and re-applies its parameters (CT-57), then stands.
+  WaitUntil(d, [](const DriveStatus& s) { return !s.warnings.empty(); });
+  for (int i = 0; i < 5; ++i) Settle();
+  ReEnableAndExpectNothingResent(d, SimPosition(0));
+}
+
+TEST_F(TrinamicRecoveryTest, StopConditionFaultThenAcknowledge_ReEnableSendsNoStaleTarget) {
+  StartSim();
+  Drive* d = Activate(Config());
+  ASSERT_NE(d, nullptr);
+  ASSERT_TRUE(d->WriteParameter({ParameterId(Opcode::kMotorParameters, 6)}, 0x2A).ok());
+  ASSERT_TRUE(d->WriteParameter({ParameterId(Opcode::kAnalogStopLimits, 3)}, 900).ok());
+  Enable(d);
+  auto move = d->Move(MoveAbsolute{15000, 3000, 30000, 0});
+  ASSERT_TRUE(move.ok()) << move.status();
+  server_->WithController([](Controller& c) { c.world(0).analog = 901; });
+  ASSERT_EQ(WaitUntil(d, [](const DriveStatus& s) { return s.state == DriveState::kFault; }).state,
+            DriveState::kFault);
+  WaitSimStill();
+  const int32_t rest = SimPosition(0);
+  EXPECT_LT(rest, 15000);
+  server_->ClearWords();
+  server_->WithController([](Controller& c) { c.world(0).analog = 512; });
+  ReEnableAndExpectNothingResent(d, rest);
+}
+
 }  // namespace
 }  // namespace drivegw::trinamic
