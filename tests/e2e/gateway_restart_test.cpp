@@ -13,22 +13,14 @@
 #include <functional>
 #include <iostream>
 #include <memory>
-#include <random>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "adapters/core/clock.h"
 #include "adapters/core/drive.h"
-#include "adapters/stober/param_id.h"
-#include "adapters/trinamic/codec.h"
-#include "server/config/config.h"
 #include "server/gateway.h"
-#include "sim/linmot/server.h"
-#include "sim/linmot_devicenet/server.h"
-#include "sim/stober/motion_core.h"
-#include "sim/stober/server.h"
-#include "sim/trinamic/server.h"
+#include "tests/e2e/recovery_sims.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw {
@@ -40,33 +32,8 @@ using test_support::WaitStatus;
 
 constexpr auto kLong = seconds(30);  // generous: the host runs at load 6-10
 
-// The family-independent view of one simulated drive: its own record, read without the gateway.
-struct SimView {
-  // Motion commands the drive received and interpreted since power-up (its own counter).
-  std::function<uint64_t()> motion_commands;
-  std::function<double()> position_mm;  // actual position, from the simulator
-  std::function<bool()> moving;
-  // Called once the drive stands, before the second gateway starts: a simulator whose record is
-  // a bounded trace empties it here so the count after the restart cannot roll over.
-  std::function<void()> mark = [] {};
-};
-
-// One family's scenario: the drive's configuration and the moves (A fast, B slow so the stop
-// lands mid-move, C the new command after the restart).
-struct Scenario {
-  DriveConfig drive;
-  SimView sim;
-  bool home_first = false;
-  double standstill_tolerance_mm = 0;  // the manual's in-position window, see each test
-  MoveAbsolute to_a;
-  MoveAbsolute to_b;
-  MoveAbsolute to_c;
-};
-
-uint16_t RandomCanPort() {
-  std::random_device rd;
-  return static_cast<uint16_t>(20000 + rd() % 40000);
-}
+using test_support::FamilySim;
+using Scenario = FamilySim;
 
 class GatewayRestartTest : public ::testing::Test {
  protected:
@@ -194,175 +161,28 @@ class GatewayRestartTest : public ::testing::Test {
   std::string data_dir_;
 };
 
-// LinMot LinUDP: the drive counts every MC command it interprets (new command count in the MC
-// header, linmot-linudp.md / MC interface: a command runs only when the count changes). In-target
-// window: the simulator's default In Pos window 0.1 mm (LinMot "Position Monitoring").
 TEST_F(GatewayRestartTest, LinUdp_RestartMidMove_NothingResentAxisStill) {
-  sim::linmot::SimOptions so;
-  so.name = "r1";
-  so.bind = transport::Endpoint{transport::Endpoint::kLoopback, 0};
-  so.master_port = 0;  // any source port: each gateway binds its own
-  auto sim = sim::linmot::LinMotServer::Start(so, SteadyClock::Instance());
-  ASSERT_TRUE(sim.ok()) << sim.status();
-  sim::linmot::LinMotServer& s = **sim;
-  Scenario sc;
-  sc.drive = config::DemoDrives(0).front();
-  sc.drive.name = "r1";
-  sc.drive.linudp->port = s.port();
-  sc.drive.linudp->master_port = 0;
-  sc.sim.motion_commands = [&] {
-    const auto d = s.Snapshot().device;
-    return d.mc_commands_executed + d.mc_commands_rejected;
-  };
-  sc.sim.position_mm = [&] { return s.Snapshot().device.actual_position_mm; };
-  sc.sim.moving = [&] { return s.Snapshot().device.motion_active; };
-  sc.standstill_tolerance_mm = 0.1;
-  sc.to_a = MoveAbsolute{20, 500, 5000, 5000};
-  sc.to_b = MoveAbsolute{120, 40, 500, 500};  // 2.5 s: the stop lands mid-move
-  sc.to_c = MoveAbsolute{60, 500, 5000, 5000};
-  Run(sc);
+  auto f = test_support::StartLinUdpSim("r1");
+  ASSERT_TRUE(f.ok()) << f.status();
+  Run(*f);
 }
 
-// LinMot DeviceNet: the controller counts executed commands (command toggle T, §6 "Command
-// Toggle": a command runs only on a changed T). Same In Pos window as LinUDP.
 TEST_F(GatewayRestartTest, DeviceNet_RestartMidMove_NothingResentAxisStill) {
-  CanBusConfig bus;
-  bus.kind = CanBusConfig::Kind::kUdpMulticast;
-  bus.group = "239.74.163.2";
-  bus.port = RandomCanPort();
-  sim::linmot_devicenet::DnSimOptions dso;
-  dso.name = "r2";
-  dso.can = bus;
-  dso.mac_id = 5;
-  auto sim = sim::linmot_devicenet::LinMotDnServer::Start(dso, SteadyClock::Instance());
-  ASSERT_TRUE(sim.ok()) << sim.status();
-  sim::linmot_devicenet::LinMotDnServer& s = **sim;
-  Scenario sc;
-  sc.drive.name = "r2";
-  sc.drive.family = "linmot-devicenet";
-  sc.drive.axis.min_mm = 0;
-  sc.drive.axis.max_mm = 150;
-  sc.drive.axis.max_velocity_mm_s = 1000;
-  sc.drive.axis.max_acceleration_mm_s2 = 10000;
-  sc.drive.can = bus;
-  sc.drive.mac_id = 5;
-  sc.sim.motion_commands = [&] {
-    // §8.4: the commands that set a position set point or start motion (0x11-0x15 set point,
-    // increment, home; 0x19 set actual position; 0x20-0x23 curves; 0x68 CAM start).
-    const auto by_id = s.Snapshot().device.executed_by_id;
-    uint64_t n = 0;
-    for (uint8_t id : {0x11, 0x12, 0x13, 0x14, 0x15, 0x19, 0x20, 0x21, 0x22, 0x23, 0x68}) {
-      n += by_id[id];
-    }
-    return n;
-  };
-  sc.sim.position_mm = [&] { return s.Snapshot().device.motors[0].actual_mm; };
-  sc.sim.moving = [&] { return s.Snapshot().device.motors[0].motion_active; };
-  sc.home_first = true;
-  sc.standstill_tolerance_mm = 0.1;
-  sc.to_a = MoveAbsolute{20, 500, 5000, 5000};
-  sc.to_b = MoveAbsolute{120, 40, 500, 500};
-  sc.to_c = MoveAbsolute{60, 500, 5000, 5000};
-  Run(sc);
+  auto f = test_support::StartDeviceNetSim("r2");
+  ASSERT_TRUE(f.ok()) << f.status();
+  Run(*f);
 }
 
-// Trinamic SIXpack: the PACK executes what it receives, so the record is the words it executed
-// (server wire trace) filtered to the opcodes that start or redirect motion or rewrite the
-// position counter (trinamic-sixpack.md §4: $22 reference search, $23 start ramp, $24 PI,
-// $25 rotation, $26 set target, $27 set position, $29 parallel ramp, $50 interpolate). Standstill
-// tolerance: one microstep (640 microsteps/mm).
 TEST_F(GatewayRestartTest, Trinamic_RestartMidMove_NothingResentAxisStill) {
-  sim::trinamic::ServerOptions so;
-  so.controller.address = 1;
-  so.controller.axes = 6;
-  so.controller.framing = sim::trinamic::ReplyFraming::kR8;
-  so.pty_path = (std::filesystem::path(data_dir_) / "pack.pty").string();
-  auto sim = sim::trinamic::TrinamicServer::Start(so, SteadyClock::Instance());
-  ASSERT_TRUE(sim.ok()) << sim.status();
-  sim::trinamic::TrinamicServer& s = **sim;
-  Scenario sc;
-  sc.drive = config::DemoTrinamicDrives(so.pty_path).front();
-  sc.drive.name = "r3";
-  const double per_mm = sc.drive.trinamic->microsteps_per_unit;
-  sc.sim.motion_commands = [&] {
-    uint64_t n = 0;
-    for (const auto& w : s.words()) {
-      if (w.size() < 2) continue;
-      switch (static_cast<trinamic::Opcode>(w[1])) {
-        case trinamic::Opcode::kStartReferenceSearch:
-        case trinamic::Opcode::kStartRamp:
-        case trinamic::Opcode::kActivatePi:
-        case trinamic::Opcode::kStartRotation:
-        case trinamic::Opcode::kSetTarget:
-        case trinamic::Opcode::kSetPosition:
-        case trinamic::Opcode::kStartRampParallel:
-        case trinamic::Opcode::kInterpolate:
-          ++n;
-          break;
-        default:
-          break;
-      }
-    }
-    return n;
-  };
-  sc.sim.position_mm = [&] {
-    double mm = 0;
-    s.WithController([&](sim::trinamic::Controller& c) { mm = c.state(0).position / per_mm; });
-    return mm;
-  };
-  sc.sim.moving = [&] {
-    bool moving = false;
-    s.WithController([&](sim::trinamic::Controller& c) {
-      moving = c.state(0).action != sim::trinamic::Action::kInactive;
-    });
-    return moving;
-  };
-  sc.sim.mark = [&] { s.ClearWords(); };
-  sc.standstill_tolerance_mm = 1.0 / per_mm;
-  sc.to_a = MoveAbsolute{5, 40, 190, 190};
-  sc.to_b = MoveAbsolute{60, 10, 100, 100};  // 5.5 s
-  sc.to_c = MoveAbsolute{10, 40, 190, 190};
-  Run(sc);
+  auto f = test_support::StartTrinamicSim("r3", data_dir_);
+  ASSERT_TRUE(f.ok()) << f.status();
+  Run(*f);
 }
 
-// STOBER CANopen: the motion core counts rising edges of Execute I402 with a command in I401
-// (stober-motion.md §1.1/§2.2: a command starts only on that edge). Standstill: 0.001 u, the
-// position resolution on the wire (decision 1172).
 TEST_F(GatewayRestartTest, Stober_RestartMidMove_NothingResentAxisStill) {
-  CanBusConfig bus;
-  bus.kind = CanBusConfig::Kind::kUdpMulticast;
-  bus.group = "239.74.163.2";
-  bus.port = RandomCanPort();
-  Scenario sc;
-  sc.drive = config::DemoStoberDrive(bus);
-  sc.drive.name = "r4";
-  sim::stober::AxisServerOptions so;
-  so.node_id = *sc.drive.node_id;
-  so.can = bus;
-  so.axis.extrapolation_ms = 100;  // as the demo (decision 413)
-  auto sim = sim::stober::AxisServer::Start(so, SteadyClock::Instance());
-  ASSERT_TRUE(sim.ok()) << sim.status();
-  sim::stober::AxisServer& s = **sim;
-  sc.sim.motion_commands = [&] {
-    uint64_t n = 0;
-    s.WithAxis([&](sim::stober::MotionCore& c) { n = c.execute_edges(); });
-    return n;
-  };
-  sc.sim.position_mm = [&] {
-    double p = 0;
-    s.WithAxis([&](sim::stober::MotionCore& c) { p = c.actual_position_unwrapped(); });
-    return p;
-  };
-  sc.sim.moving = [&] {
-    double v = 0;
-    s.WithAxis([&](sim::stober::MotionCore& c) { v = c.Read(stober::P("I88")).value_or(0); });
-    return std::abs(v) > 1e-9;
-  };
-  sc.standstill_tolerance_mm = 0.001;
-  sc.to_a = MoveAbsolute{20, 200, 2000, 2000};
-  sc.to_b = MoveAbsolute{300, 100, 500, 500};  // 3 s
-  sc.to_c = MoveAbsolute{60, 200, 2000, 2000};
-  Run(sc);
+  auto f = test_support::StartStoberSim("r4");
+  ASSERT_TRUE(f.ok()) << f.status();
+  Run(*f);
 }
 
 }  // namespace
