@@ -606,5 +606,71 @@ TEST_F(DnDriveTest, NativeResetController_DriveRestartsAndReconnects) {
   EXPECT_GE(drive_->exchange_counters()->drive_restarts, 1u);
 }
 
+// ---- Safe recovery (issue 11, decision 1451) ---------------------------------------------------
+// §8.4 / D-4: T-commands run only on a changed Start Command Toggle; the IDs below set a
+// position set point or start motion. After a fault acknowledge or a power cycle, re-enabling
+// must not make the drive execute any of them (the drive's own per-ID record, executed_by_id).
+
+class DnRecoveryTest : public DnDriveTest {
+ protected:
+  uint64_t SetPointCommands() {
+    const auto by_id = Sim().device.executed_by_id;
+    uint64_t n = 0;
+    for (uint8_t id : {0x11, 0x12, 0x13, 0x14, 0x15, 0x19, 0x20, 0x21, 0x22, 0x23, 0x68}) {
+      n += by_id[id];
+    }
+    return n;
+  }
+  bool Moving() { return Sim().device.motors[0].motion_active; }
+  double Position() { return Sim().device.motors[0].actual_mm; }
+  void ReEnableAndExpectNothingResent(uint64_t commands, double position) {
+    if (drive_->GetStatus().state == DriveState::kFault) {
+      ASSERT_TRUE(drive_->AcknowledgeFault().ok());
+    }
+    Enable();
+    const uint64_t from = drive_->link_health().replies;
+    EXPECT_TRUE(WaitSim([&](const auto&) { return drive_->link_health().replies >= from + 40; }));
+    EXPECT_EQ(SetPointCommands(), commands) << "set point executed after the re-enable";
+    EXPECT_FALSE(Moving());
+    EXPECT_NEAR(Position(), position, 0.1);  // In Pos window
+    EXPECT_EQ(WaitFinal(Move(MoveAbsolute{60, 200, 2000, 2000}).id).state, CommandState::kDone);
+    EXPECT_GT(SetPointCommands(), commands);
+  }
+};
+
+TEST_F(DnRecoveryTest, CodedErrorMidMoveThenAcknowledge_ReEnableSendsNoStaleSetPoint) {
+  Start();
+  Enable();
+  Move(MoveAbsolute{140, 50, 500, 500});
+  ASSERT_TRUE(WaitSim([&](const auto& s) {
+    return s.device.motors[0].motion_active && s.device.motors[0].actual_mm > 5;
+  }));
+  ASSERT_TRUE(server_->RaiseCodedError(kCodedRangeError).ok());
+  ASSERT_EQ(WaitUntil([](const DriveStatus& s) { return s.state == DriveState::kFault; }).state,
+            DriveState::kFault);
+  ASSERT_TRUE(WaitSim([&](const auto&) { return !Moving(); }));
+  ReEnableAndExpectNothingResent(SetPointCommands(), Position());
+}
+
+// Motors that come up initialised (INIT Done at power-up, §13.1 F1). Without that, Enable runs
+// INIT first (D-10: RUN needs INIT Done) — a homing run that moves the axis by design, not a
+// stale set point (docs/reliability.md "Safe recovery").
+TEST_F(DnRecoveryTest, PowerCycleAfterMove_ReEnableSendsNoStaleSetPoint) {
+  DnSimOptions o = SimDefaults();
+  o.initialised = true;
+  Start(o);
+  Enable();
+  ASSERT_EQ(WaitFinal(Move(MoveAbsolute{40, 200, 2000, 2000}).id).state, CommandState::kDone);
+  const uint64_t connects = drive_->exchange_counters()->connects;
+  server_->PowerCycle();
+  const uint64_t commands = SetPointCommands();  // the new power-up's count, before any poll
+  ASSERT_NE(WaitUntil([&](const DriveStatus& s) {
+              return s.state != DriveState::kOffline &&
+                     drive_->exchange_counters()->connects > connects;
+            }).state,
+            DriveState::kOffline);
+  ReEnableAndExpectNothingResent(commands, Position());
+}
+
 }  // namespace
 }  // namespace drivegw::linmot::devicenet
