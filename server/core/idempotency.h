@@ -23,8 +23,15 @@
 #include "google/protobuf/io/zero_copy_stream_impl_lite.h"
 #include "google/protobuf/message.h"
 #include "server/core/call_context.h"
+#include "server/core/errors.h"
 
 namespace drivegw::server {
+
+// Longest idempotency key accepted, in bytes (decision 1452): the cache charges each entry a fixed
+// kEntryOverhead of 256 bytes for its bookkeeping, key included, so max_bytes bounds memory only
+// if keys stay that small; gRPC would otherwise let a client store up to its 8 KiB metadata limit
+// per entry, 10000 entries deep. 256 fits a UUID (36) or a ULID (26) many times over.
+inline constexpr size_t kMaxIdempotencyKeyBytes = 256;
 
 // Bounds of the cache (decision 020).
 struct IdempotencyOptions {
@@ -91,7 +98,13 @@ template <typename Req, typename Fn>
 auto RunIdempotent(IdempotencyCache* cache, std::string_view method, const Req& request,
                    const CallContext& c, Fn fn) -> decltype(fn()) {
   using Out = decltype(fn());
-  if (cache == nullptr || c.idempotency_key.empty() || IsReadOnlyMethod(method)) return fn();
+  if (c.idempotency_key.empty() || IsReadOnlyMethod(method)) return fn();
+  if (c.idempotency_key.size() > kMaxIdempotencyKeyBytes) {
+    return FieldError("Idempotency-Key",
+                      absl::StrCat(c.idempotency_key.size(), " bytes exceeds the limit of ",
+                                   kMaxIdempotencyKeyBytes, " bytes"));
+  }
+  if (cache == nullptr) return fn();
   std::string bytes;
   {
     google::protobuf::io::StringOutputStream raw(&bytes);

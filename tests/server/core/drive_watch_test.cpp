@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -39,6 +40,30 @@ TEST(OpenWatchTest, OpenWatch_BadRate_IsRefused) {
   EXPECT_EQ(c.core->OpenWatch(r, {}).status().code(), absl::StatusCode::kInvalidArgument);
   r.set_max_rate_hz(1001);
   EXPECT_EQ(c.core->OpenWatch(r, {}).status().code(), absl::StatusCode::kOutOfRange);
+}
+
+// Gap 12 (docs/reliability.md): NaN and infinities are refused naming the field and the limit;
+// the limit itself and 0 (the default rate) are accepted.
+TEST(OpenWatchTest, OpenWatch_RateNanInfAndLimit_NamedOrAccepted) {
+  Core c;
+  v1::WatchDrivesRequest r;
+  r.set_max_rate_hz(std::numeric_limits<double>::quiet_NaN());
+  auto nan = c.core->OpenWatch(r, {});
+  EXPECT_EQ(nan.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(nan.status().message().find("max_rate_hz"), std::string::npos) << nan.status();
+  r.set_max_rate_hz(-std::numeric_limits<double>::infinity());
+  auto neg = c.core->OpenWatch(r, {});
+  EXPECT_EQ(neg.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(neg.status().message().find("must not be negative"), std::string::npos) << neg.status();
+  r.set_max_rate_hz(std::numeric_limits<double>::infinity());
+  auto inf = c.core->OpenWatch(r, {});
+  EXPECT_EQ(inf.status().code(), absl::StatusCode::kOutOfRange);
+  EXPECT_NE(inf.status().message().find("max_rate_hz: inf exceeds 1000"), std::string::npos)
+      << inf.status();
+  r.set_max_rate_hz(1000);
+  EXPECT_TRUE(c.core->OpenWatch(r, {}).ok());
+  r.set_max_rate_hz(0);
+  EXPECT_TRUE(c.core->OpenWatch(r, {}).ok());
 }
 
 TEST(OpenWatchTest, OpenWatch_UnknownDrive_IsNotFound) {

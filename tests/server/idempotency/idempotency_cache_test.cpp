@@ -77,6 +77,30 @@ TEST(RunIdempotent, DifferentBody_InvalidArgumentNamingTheKey) {
   EXPECT_EQ(drive.calls, 1);
 }
 
+// Decision 1452: a key longer than kMaxIdempotencyKeyBytes is refused before the call runs,
+// naming the header and the limit; the limit itself is accepted; reads ignore keys entirely.
+TEST(RunIdempotent, OversizedKey_InvalidArgumentNamingHeaderAndLimit) {
+  IdempotencyCache cache;
+  Counter drive;
+  const std::string longest(kMaxIdempotencyKeyBytes, 'k');
+  EXPECT_TRUE(RunIdempotent(&cache, kMove, Move(10), Keyed(longest), [&] { return drive(); }).ok());
+  const absl::Status s = RunIdempotent(&cache, kMove, Move(10), Keyed(longest + "k"), [&] {
+                           return drive();
+                         }).status();
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(std::string(s.message()), "Idempotency-Key: 257 bytes exceeds the limit of 256 bytes");
+  EXPECT_EQ(drive.calls, 1);
+  // Refused without a cache too: the limit belongs to the API, not to this gateway's cache.
+  EXPECT_EQ(RunIdempotent(nullptr, kMove, Move(10), Keyed(longest + "k"), [&] { return drive(); })
+                .status()
+                .code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(RunIdempotent(&cache, "drivegw.v1.DriveService/GetDrive", Move(10),
+                            Keyed(longest + "k"), [&] { return drive(); })
+                  .ok());
+  EXPECT_EQ(drive.calls, 2);
+}
+
 TEST(RunIdempotent, ConcurrentRetry_WaitsForTheFirstCall) {
   IdempotencyCache cache;
   std::mutex mu;
