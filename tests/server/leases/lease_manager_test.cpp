@@ -117,6 +117,23 @@ TEST_F(LeaseManagerTest, Release_FreesTheDriveAtOnce) {
             absl::StatusCode::kNotFound);
 }
 
+// Gap 12 (docs/reliability.md): an unknown, released or expired lease id is NotFound naming the
+// field and the id on Renew and Release; on a drive nobody leases, presenting an unknown id
+// changes nothing (the id only tells a holder apart, decision 019).
+TEST_F(LeaseManagerTest, UnknownLeaseId_NotFoundNamingIt) {
+  EXPECT_EQ(leases_.Renew("nope", Who("mes-line-3"), 30s).status().message(),
+            "lease_id: 'nope' is unknown, expired or released");
+  EXPECT_EQ(leases_.Release("nope", Who("mes-line-3")).status().code(),
+            absl::StatusCode::kNotFound);
+  auto lease = leases_.Acquire("x1", Who("mes-line-3"), 30s);
+  ASSERT_TRUE(lease.ok()) << lease.status();
+  ASSERT_TRUE(leases_.Release(lease->lease_id, Who("mes-line-3")).ok());
+  const absl::Status again = leases_.Renew(lease->lease_id, Who("mes-line-3"), 30s).status();
+  EXPECT_EQ(again.code(), absl::StatusCode::kNotFound);
+  EXPECT_THAT(std::string(again.message()), HasSubstr(lease->lease_id));
+  EXPECT_TRUE(leases_.CheckControl("x1", Who("hmi-2", "nope")).ok());
+}
+
 TEST(CheckLease, NoManager_AlwaysOk) { EXPECT_TRUE(CheckLease(nullptr, "x1", Who("anyone")).ok()); }
 
 }  // namespace
