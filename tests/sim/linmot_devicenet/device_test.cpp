@@ -642,6 +642,21 @@ TEST_F(DeviceTest, EdgeTriggeredXCommands_RepeatedSetIsNotReExecuted_D4Alternati
   EXPECT_EQ(device_->Snapshot().commands_executed, executed);
 }
 
+// The per-ID record the recovery tests read (decision 1451): executed commands counted under
+// their §8.4 ID; a repeated X-command ignored by the edge rule (D-4 alternative) is not counted.
+TEST_F(DeviceTest, ExecutedById_CountsEachExecutedCommandUnderItsId) {
+  DnSimOptions o = testing::F1Options();
+  o.x_commands_edge_triggered = true;
+  Make(o);
+  EnterRun();
+  const auto before = device_->Snapshot().executed_by_id;
+  Poll("02.00.11.10.00.14");
+  Poll("02.00.11.10.00.14");  // same word: not executed again
+  const auto after = device_->Snapshot().executed_by_id;
+  EXPECT_EQ(after[0x11], before[0x11] + 1);
+  EXPECT_EQ(after[0x19], before[0x19]);
+}
+
 TEST_F(DeviceTest, ParameterPairs_SetThenGetEveryMotorParameter) {
   Make(testing::F1Options());
   int checked = 0;

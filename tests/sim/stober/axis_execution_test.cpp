@@ -29,6 +29,24 @@ TEST(StoberAxis, CT01_RisingEdgeStartsLevelDoesNotRestart) {
   EXPECT_EQ(axis.R("I80"), 2000);
 }
 
+// The record the recovery tests read (decision 1451): one count per rising Execute edge with a
+// command — started or denied — none for a held level, a falling edge or MC_DoNothing.
+TEST(StoberAxis, ExecuteEdgesCountedForCommandsOnly) {
+  TestAxis axis;
+  EXPECT_EQ(axis.core().execute_edges(), 0u);
+  axis.MoveAbsolute(1000);
+  EXPECT_EQ(axis.core().execute_edges(), 1u);
+  axis.Advance(100);  // level held
+  axis.ExecuteLow();
+  EXPECT_EQ(axis.core().execute_edges(), 1u);
+  axis.W("I401", 0);  // MC_DoNothing
+  axis.W("I402", 1);
+  axis.Advance();
+  EXPECT_EQ(axis.core().execute_edges(), 1u);
+  axis.MoveAbsolute(1e9);  // denied (software limit): still an edge the master sent
+  EXPECT_EQ(axis.core().execute_edges(), 2u);
+}
+
 TEST(StoberAxis, CT02_SetValuesLatchedAtTheEdge) {
   TestAxis axis;
   axis.MoveAbsolute(5000);
