@@ -79,6 +79,18 @@ class BasicWsClient {
     boost::beast::get_lowest_layer(ws_).close(ec);
   }
 
+  // Sends one text message (the server accepts at most 4096 bytes, ws_session.cpp).
+  bool Write(const std::string& text) {
+    bool done = false;
+    boost::beast::error_code ec;
+    ws_.text(true);
+    ws_.async_write(boost::asio::buffer(text), [&](boost::beast::error_code e, size_t) {
+      ec = e;
+      done = true;
+    });
+    return Run(done) && !ec;
+  }
+
   void Close() {
     bool done = false;
     ws_.async_close(boost::beast::websocket::close_code::normal,

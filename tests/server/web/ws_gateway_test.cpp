@@ -207,6 +207,30 @@ TEST_F(WebGatewayTest, ClientGone_WatchCallCancelled) {
   EXPECT_EQ(rest_->ws_stats().sessions.load(), 2u);
 }
 
+// Gap 12 (docs/reliability.md): clients send nothing but control frames, so a client message is
+// capped at 4096 bytes (kMaxClientMessage, ws_session.cpp). The limit itself is read and dropped;
+// one byte more fails the connection with 1009 "message too big" (RFC 6455 §7.4.1) and ends the
+// watch call.
+TEST_F(WebGatewayTest, ClientMessageOverLimit_Closed1009AndWatchEnded) {
+  StartGateway(/*auth=*/false);
+  {
+    WsClient ws;
+    ASSERT_TRUE(ws.Connect(gw_->http_port(), "/v1/drives:ws?names=x1"));
+    ASSERT_TRUE(ws.Read().has_value());
+    ASSERT_TRUE(ws.Write(std::string(4096, 'a')));
+    ws.Close();  // processed after the message: a normal close shows the message was accepted
+    EXPECT_EQ(ws.close_reason().code, 1000);
+  }
+  WsClient ws;
+  ASSERT_TRUE(ws.Connect(gw_->http_port(), "/v1/drives:ws?names=x1"));
+  ASSERT_TRUE(ws.Read().has_value());
+  ASSERT_TRUE(ws.Write(std::string(4097, 'a')));
+  while (ws.Read().has_value()) {
+  }
+  EXPECT_EQ(ws.close_reason().code, 1009);
+  EXPECT_TRUE(WaitFor([&] { return rest_->ws_stats().open_calls.load() == 0; }));
+}
+
 TEST_F(WebGatewayTest, UnknownDrive_ErrorFrameThenClose) {
   StartGateway(/*auth=*/false);
   WsClient ws;
