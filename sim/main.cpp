@@ -67,10 +67,11 @@ flags:
   --status-every S       print each drive's state every S seconds (default 0 = never)
   -h, --help             this text
 
-every family (except the serial-only trinamic PACK):
+every family:
   --impair SPEC          seeded faults on the simulator's link, both directions, e.g.
                          drop=0.1,duplicate=0.05,reorder=0.02,corrupt=0.01,delay=1ms..5ms,seed=7
-                         (what it sends uses seed, what it receives seed+1; decision 1421)
+                         (one direction uses seed, the other seed+1; a serial trinamic line
+                         takes drop and corrupt only; decision 1421)
 )";
 
 struct Flags {
@@ -477,13 +478,20 @@ int RunTrinamic(int argc, char** argv) {
     std::cout << "drivegw-sim: stopped\n";
     return 0;
   }
-  if (g_impair) {
-    UsageError("--impair: the serial PACK has no impairment yet (use --can; decision 1421)");
-  }
   auto server = tsim::TrinamicServer::Start(o, SteadyClock::Instance());
   if (!server.ok()) {
     std::cerr << "drivegw-sim: " << server.status().message() << "\n";
     return 1;
+  }
+  if (g_impair) {
+    // Host words use the seed, replies seed + 1; a serial line takes drop and corrupt only.
+    drivegw::transport::Impairment replies = *g_impair;
+    ++replies.seed;
+    if (auto s = (*server)->SetImpairment(*g_impair, replies); !s.ok()) {
+      (*server)->Stop();
+      UsageError(absl::StrCat("--impair: ", s.message()));
+    }
+    std::cout << "impaired link: " << drivegw::transport::ImpairmentString(*g_impair) << "\n";
   }
   std::cout << absl::StrFormat("trinamic address %d (%d axes) on %s -> %s", o.controller.address,
                                o.controller.axes, o.pty_path, (*server)->slave_path());
