@@ -203,14 +203,26 @@ TEST_F(StoberFaultTest, TenPercentLossBothWays_NoUnrequestedMotion_NoFalseDone_R
       continue;
     }
     ++failed;
-    // Not DONE: the simulator must not have started it (or, if it did, the error must not hide
-    // a motion: then it is the one requested and ran to its target).
+    // Not DONE. Either the simulator never started it (e.g. the Execute edge was lost), or it
+    // started exactly this requested target once and the link failed afterwards (the handle
+    // says why, e.g. "heartbeat lost"): a requested motion, not an unrequested one. Anything
+    // else — another target, or this one twice — violates (a).
     const std::vector<double> started = Started();
-    if (started.size() > expected.size()) {
+    if (started.size() == expected.size() + 1 && std::fabs(started.back() - target) < 1e-6) {
+      expected.push_back(target);
+      WaitOnline();
+      test_support::WaitStatus(
+          *drive_, [](const DriveStatus& s) { return !s.motion_active; }, kWait);
+      base = SimPosition();
+      if (drive_->GetStatus().state != DriveState::kEnabled) EnableUnderLoss();
+      continue;
+    }
+    if (started.size() != expected.size()) {
       ADD_FAILURE() << "move to " << target << " reported " << static_cast<int>(st)
                     << " but the simulator started " << ::testing::PrintToString(started);
       return;
     }
+    if (drive_->GetStatus().state == DriveState::kOffline) WaitOnline();
   }
   EXPECT_GE(done, 3) << "too few moves completed to judge";
   std::printf("%d moves DONE, %d ended ERROR or were refused (none started)\n", done, failed);
