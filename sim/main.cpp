@@ -22,6 +22,8 @@
 #include "adapters/core/clock.h"
 #include "adapters/linmot/mc/motion_command.h"
 #include "adapters/transport/endpoint.h"
+#include "adapters/transport/impaired_can_channel.h"
+#include "adapters/transport/impaired_link.h"
 #include "sim/linmot/server.h"
 #include "sim/linmot_devicenet/cli.h"
 #include "sim/linmot_devicenet/server.h"
@@ -64,6 +66,12 @@ flags:
   --reply-payload N      zero-fill replies to N bytes: 14 (observed) or 64 (manual) (default 14)
   --status-every S       print each drive's state every S seconds (default 0 = never)
   -h, --help             this text
+
+every family:
+  --impair SPEC          seeded faults on the simulator's link, both directions, e.g.
+                         drop=0.1,duplicate=0.05,reorder=0.02,corrupt=0.01,delay=1ms..5ms,seed=7
+                         (one direction uses seed, the other seed+1; a serial trinamic line
+                         takes drop and corrupt only; decision 1421)
 )";
 
 struct Flags {
@@ -78,6 +86,30 @@ struct Flags {
 [[noreturn]] void UsageError(const std::string& message) {
   std::cerr << "drivegw-sim: " << message << "\n(drivegw-sim --help for the flags)\n";
   std::exit(kUsageError);
+}
+
+// --impair (main takes it out of the arguments before the families parse theirs).
+std::optional<drivegw::transport::Impairment> g_impair;
+
+// nullptr without --impair (the server opens its own channel); otherwise the bus wrapped in
+// ImpairedCanChannel: what the simulator sends uses the seed, what it receives seed + 1, and
+// each further drive `index` shifts both by 2 so no two links share a decision sequence.
+std::unique_ptr<drivegw::transport::CanChannel> ImpairedChannel(const drivegw::CanBusConfig& can,
+                                                                int index = 0) {
+  if (!g_impair) return nullptr;
+  auto inner = drivegw::transport::OpenCanChannel(can);
+  if (!inner.ok()) {
+    std::cerr << "drivegw-sim: " << inner.status().message() << "\n";
+    std::exit(1);
+  }
+  drivegw::transport::Impairment send = *g_impair;
+  send.seed += 2 * static_cast<uint64_t>(index);
+  drivegw::transport::Impairment receive = send;
+  ++receive.seed;
+  auto wrapped = drivegw::transport::ImpairedCanChannel::Wrap(*std::move(inner), send, receive);
+  if (!wrapped.ok()) UsageError(absl::StrCat("--impair: ", wrapped.status().message()));
+  std::cout << "impaired link: " << drivegw::transport::ImpairmentString(*g_impair) << "\n";
+  return *std::move(wrapped);
 }
 
 double ParseDouble(const std::string& flag, const std::string& v) {
@@ -290,7 +322,8 @@ int RunLinMotDeviceNet(int argc, char** argv) {
   std::vector<std::unique_ptr<dnsim::LinMotDnServer>> servers;
   for (int i = 0; i < flags->count; ++i) {
     const dnsim::DnSimOptions o = dnsim::DriveOptions(*flags, i);
-    auto server = dnsim::LinMotDnServer::Start(o, SteadyClock::Instance());
+    auto server =
+        dnsim::LinMotDnServer::Start(o, SteadyClock::Instance(), ImpairedChannel(o.can, i));
     if (!server.ok()) {
       std::cerr << "drivegw-sim: " << server.status().message() << "\n";
       for (auto& s : servers) s->Stop();
@@ -426,7 +459,8 @@ int RunTrinamic(int argc, char** argv) {
       co.serial_pty_path = o.pty_path;
       co.serial_framing = o.controller.framing;
     }
-    auto server = tsim::TrinamicCanServer::Start(co, SteadyClock::Instance());
+    auto server =
+        tsim::TrinamicCanServer::Start(co, SteadyClock::Instance(), ImpairedChannel(co.can));
     if (!server.ok()) {
       std::cerr << "drivegw-sim: " << server.status().message() << "\n";
       return 1;
@@ -448,6 +482,16 @@ int RunTrinamic(int argc, char** argv) {
   if (!server.ok()) {
     std::cerr << "drivegw-sim: " << server.status().message() << "\n";
     return 1;
+  }
+  if (g_impair) {
+    // Host words use the seed, replies seed + 1; a serial line takes drop and corrupt only.
+    drivegw::transport::Impairment replies = *g_impair;
+    ++replies.seed;
+    if (auto s = (*server)->SetImpairment(*g_impair, replies); !s.ok()) {
+      (*server)->Stop();
+      UsageError(absl::StrCat("--impair: ", s.message()));
+    }
+    std::cout << "impaired link: " << drivegw::transport::ImpairmentString(*g_impair) << "\n";
   }
   std::cout << absl::StrFormat("trinamic address %d (%d axes) on %s -> %s", o.controller.address,
                                o.controller.axes, o.pty_path, (*server)->slave_path());
@@ -541,7 +585,7 @@ int RunStober(int argc, char** argv) {
   if (revolution) o.axis.revolution = *revolution;
   if (auto s = ssim::AxisDevice::Validate(o.axis); !s.ok()) UsageError(std::string(s.message()));
   const sigset_t signals = BlockSignals();
-  auto server = ssim::AxisServer::Start(o, SteadyClock::Instance());
+  auto server = ssim::AxisServer::Start(o, SteadyClock::Instance(), ImpairedChannel(o.can));
   if (!server.ok()) {
     std::cerr << "drivegw-sim: " << server.status().message() << "\n";
     return 1;
@@ -564,7 +608,28 @@ int RunStober(int argc, char** argv) {
 }
 }  // namespace
 
-int main(int argc, char** argv) {
+int main(int argc_in, char** argv_in) {
+  // --impair is common to every family: taken out here, applied by each Run* below.
+  std::vector<char*> args;
+  for (int i = 0; i < argc_in; ++i) {
+    const std::string_view a = argv_in[i];
+    std::string_view spec;
+    if (a == "--impair") {
+      if (i + 1 >= argc_in) UsageError("--impair: missing value");
+      spec = argv_in[++i];
+    } else if (a.rfind("--impair=", 0) == 0) {
+      spec = a.substr(9);
+    } else {
+      args.push_back(argv_in[i]);
+      continue;
+    }
+    auto parsed = drivegw::transport::ParseImpairment(spec);
+    if (!parsed.ok()) UsageError(absl::StrCat("--", parsed.status().message()));
+    g_impair = *parsed;
+  }
+  args.push_back(nullptr);
+  const int argc = static_cast<int>(args.size()) - 1;
+  char** argv = args.data();
   if (FindFamily(argc, argv) == "linmot-devicenet") return RunLinMotDeviceNet(argc, argv);
   if (FindFamily(argc, argv) == "trinamic") return RunTrinamic(argc, argv);
   if (FindFamily(argc, argv) == "stober") return RunStober(argc, argv);
@@ -586,6 +651,18 @@ int main(int argc, char** argv) {
       std::cerr << "drivegw-sim: " << server.status().message() << "\n";
       for (auto& s : servers) s->Stop();
       return 1;
+    }
+    if (g_impair) {
+      // Replies use the seed, requests seed + 1; each further drive shifts both by 2.
+      drivegw::transport::Impairment replies = *g_impair;
+      replies.seed += 2 * static_cast<uint64_t>(i);
+      drivegw::transport::Impairment requests = replies;
+      ++requests.seed;
+      if (auto s = (*server)->SetImpairment(replies); !s.ok()) UsageError(std::string(s.message()));
+      if (auto s = (*server)->SetRequestImpairment(requests); !s.ok()) {
+        UsageError(std::string(s.message()));
+      }
+      std::cout << "impaired link: " << drivegw::transport::ImpairmentString(*g_impair) << "\n";
     }
     std::cout << absl::StrFormat(
         "linmot %s listening on %s (master port %s)\n", o.name, (*server)->endpoint().ToString(),

@@ -458,6 +458,7 @@ void LinMotDevice::StartMove(const VaiMove& m) {
     return;
   }
   target_ = target;
+  started_targets_.push_back(target);
   running_ = Resumable{false, target / kIncPerMm, 1, limits};
   last_vai_ = running_;
 }

@@ -6,6 +6,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -70,6 +71,10 @@ class LinMotDevice {
   const Parameters& parameters() const { return params_; }
   Parameters& parameters() { return params_; }
   const ErrorLog& error_log() const { return error_log_; }
+  // Motion log for fault-injection properties: the target (0.1 um) of every VAI move the
+  // interpreter actually started, in order (a retried or duplicated frame that the count rule
+  // ignored leaves no entry; a relative move executed twice leaves two).
+  const std::vector<int64_t>& started_targets() const { return started_targets_; }
   // The stored curve `curve_id` (info and data bytes as downloaded), or nullptr.
   const RtcChannel::StoredCurve* stored_curve(uint16_t curve_id) const {
     return rtc_.FindCurve(curve_id);
@@ -152,6 +157,7 @@ class LinMotDevice {
   bool blocked_ = false;
   uint64_t mc_executed_ = 0;
   uint64_t mc_rejected_ = 0;
+  std::vector<int64_t> started_targets_;
   uint64_t boots_ = 0;
   std::set<uint16_t> unsupported_logged_;
 };

@@ -75,7 +75,7 @@ bool LinMotServer::OnReadable() {
   } else {
     for (size_t i = 0; i < *received; ++i) {
       const transport::DatagramSlot& d = receive_slots_[i];
-      HandleDatagramLocked(d.from, std::span<const uint8_t>(d.buffer.data(), d.size));
+      ImpairRequestLocked(d.from, std::span<const uint8_t>(d.buffer.data(), d.size));
     }
   }
   FlushDueLocked();
@@ -87,6 +87,39 @@ void LinMotServer::AdvanceLocked() {
   if (now > last_advance_) {
     device_->Advance(now - last_advance_);
     last_advance_ = now;
+  }
+}
+
+void LinMotServer::ImpairRequestLocked(const transport::Endpoint& from,
+                                       std::span<const uint8_t> bytes) {
+  if (!request_impairment_) {
+    HandleDatagramLocked(from, bytes);
+    return;
+  }
+  const transport::ImpairmentDecision d = request_impairment_->Decide();
+  if (d.drop) {
+    ++counters_.requests_dropped;
+    return;
+  }
+  std::vector<uint8_t> copy(bytes.begin(), bytes.end());
+  if (d.corrupt) {
+    ++counters_.requests_corrupted;
+    copy.resize(transport::TruncatedLength(copy.size(), d.corrupt_bits));
+  }
+  if (d.reorder && !held_request_) {
+    ++counters_.requests_reordered;
+    held_request_ = HeldRequest{from, std::move(copy)};
+    return;
+  }
+  HandleDatagramLocked(from, copy);
+  if (d.duplicate) {
+    ++counters_.requests_duplicated;
+    HandleDatagramLocked(from, copy);
+  }
+  if (held_request_) {
+    HeldRequest held = std::move(*held_request_);
+    held_request_.reset();
+    HandleDatagramLocked(held.from, held.bytes);
   }
 }
 
@@ -141,17 +174,26 @@ void LinMotServer::QueueReplyLocked(const transport::Endpoint& to, std::vector<u
     ++counters_.replies_dropped;
     return;
   }
+  if (decision.corrupt) {
+    ++counters_.replies_corrupted;
+    bytes.resize(transport::TruncatedLength(bytes.size(), decision.corrupt_bits));
+  }
+  if (decision.reorder && !held_reply_) {
+    ++counters_.replies_reordered;
+    held_reply_ = HeldReply{to, std::move(bytes)};
+    return;
+  }
   const TimePoint now = clock_.Now();
-  auto enqueue = [&](Duration delay, std::vector<uint8_t> b) {
+  auto enqueue = [&](Duration delay, std::vector<uint8_t> b, const transport::Endpoint& dest) {
     if (delay <= Duration{0}) {
-      if (socket_.SendTo(to, b).ok()) {
+      if (socket_.SendTo(dest, b).ok()) {
         ++counters_.replies_sent;
       } else {
         ++counters_.send_errors;
       }
       return;
     }
-    PendingReply p{now + delay, to, std::move(b)};
+    PendingReply p{now + delay, dest, std::move(b)};
     auto it = std::upper_bound(pending_.begin(), pending_.end(), p.due,
                                [](TimePoint t, const PendingReply& q) { return t < q.due; });
     pending_.insert(it, std::move(p));
@@ -160,9 +202,14 @@ void LinMotServer::QueueReplyLocked(const transport::Endpoint& to, std::vector<u
   if (first > Duration{0}) ++counters_.replies_delayed;
   if (decision.duplicate) {
     ++counters_.replies_duplicated;
-    enqueue(reply_delay_ + decision.duplicate_delay, bytes);
+    enqueue(reply_delay_ + decision.duplicate_delay, bytes, to);
   }
-  enqueue(first, std::move(bytes));
+  enqueue(first, std::move(bytes), to);
+  if (held_reply_) {  // explicit reorder: the held reply goes right after this one
+    HeldReply held = std::move(*held_reply_);
+    held_reply_.reset();
+    enqueue(first, std::move(held.bytes), held.to);
+  }
 }
 
 void LinMotServer::FlushDueLocked() {
@@ -210,6 +257,13 @@ absl::Status LinMotServer::SetImpairment(const transport::Impairment& impairment
   if (absl::Status s = transport::ImpairedLink::Validate(impairment); !s.ok()) return s;
   std::lock_guard lock(mu_);
   impairment_.emplace(impairment);
+  return absl::OkStatus();
+}
+
+absl::Status LinMotServer::SetRequestImpairment(const transport::Impairment& impairment) {
+  if (absl::Status s = transport::ImpairedLink::Validate(impairment); !s.ok()) return s;
+  std::lock_guard lock(mu_);
+  request_impairment_.emplace(impairment);
   return absl::OkStatus();
 }
 

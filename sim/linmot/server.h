@@ -58,8 +58,14 @@ class LinMotServer {
   void SetInjectedWarnings(uint16_t warn_bits);
   // Freezes the slider where it is (collision): the position lag grows until 000Bh/000Ch.
   void SetMotorBlocked(bool blocked);
-  // Seeded drop/delay/duplicate of replies (linmot-linudp.md A-07 tests). Validated.
+  // Seeded drop/delay/duplicate/reorder/corrupt of replies (linmot-linudp.md A-07 tests).
+  // Validated. A corrupt reply is sent truncated (UDP's checksum rejects flipped bits before
+  // the gateway sees them; decision 1421).
   absl::Status SetImpairment(const transport::Impairment& impairment);
+  // The same for requests from the master, applied before they reach the device: drop,
+  // duplicate (handled twice), reorder (handled after the next one), corrupt (truncated).
+  // Delays are not applied to requests (the reply delay covers the round trip). Validated.
+  absl::Status SetRequestImpairment(const transport::Impairment& impairment);
   // Extra delay before every reply, measured on the injected clock.
   void SetReplyDelay(Duration delay);
   // Link loss: while false, datagrams are read and counted but never answered and the device is
@@ -84,6 +90,8 @@ class LinMotServer {
   bool OnReadable();
   void AdvanceLocked();
   void HandleDatagramLocked(const transport::Endpoint& from, std::span<const uint8_t> bytes);
+  // Applies the request impairment, then HandleDatagramLocked.
+  void ImpairRequestLocked(const transport::Endpoint& from, std::span<const uint8_t> bytes);
   void QueueReplyLocked(const transport::Endpoint& to, std::vector<uint8_t> bytes);
   void FlushDueLocked();
 
@@ -93,14 +101,25 @@ class LinMotServer {
   transport::Endpoint local_;
 
   mutable std::mutex mu_;
-  std::unique_ptr<LinMotDevice> device_;               // guarded by mu_
-  TimePoint last_advance_;                             // guarded by mu_
-  ServerCounters counters_;                            // guarded by mu_
-  std::optional<transport::ImpairedLink> impairment_;  // guarded by mu_
-  Duration reply_delay_{0};                            // guarded by mu_
-  bool answering_ = true;                              // guarded by mu_
-  std::optional<uint32_t> latched_master_ip_;          // guarded by mu_ (A-15 single master)
-  std::deque<PendingReply> pending_;                   // guarded by mu_, sorted by due
+  std::unique_ptr<LinMotDevice> device_;                       // guarded by mu_
+  TimePoint last_advance_;                                     // guarded by mu_
+  ServerCounters counters_;                                    // guarded by mu_
+  std::optional<transport::ImpairedLink> impairment_;          // guarded by mu_
+  std::optional<transport::ImpairedLink> request_impairment_;  // guarded by mu_
+  struct HeldRequest {
+    transport::Endpoint from;
+    std::vector<uint8_t> bytes;
+  };
+  std::optional<HeldRequest> held_request_;  // guarded by mu_ (request reorder)
+  struct HeldReply {
+    transport::Endpoint to;
+    std::vector<uint8_t> bytes;
+  };
+  std::optional<HeldReply> held_reply_;        // guarded by mu_ (reply reorder)
+  Duration reply_delay_{0};                    // guarded by mu_
+  bool answering_ = true;                      // guarded by mu_
+  std::optional<uint32_t> latched_master_ip_;  // guarded by mu_ (A-15 single master)
+  std::deque<PendingReply> pending_;           // guarded by mu_, sorted by due
 
   static constexpr size_t kReceiveSlots = 8;
   std::array<std::array<uint8_t, 512>, kReceiveSlots> receive_buffers_{};  // guarded by mu_

@@ -48,6 +48,12 @@ struct ServerCounters {
   uint64_t replies_dropped = 0;        // impairment
   uint64_t replies_duplicated = 0;     // impairment
   uint64_t replies_delayed = 0;        // impairment or SetReplyDelay
+  uint64_t replies_reordered = 0;      // impairment: held back, sent after the next reply
+  uint64_t replies_corrupted = 0;      // impairment: sent truncated (decision 1421)
+  uint64_t requests_dropped = 0;       // request impairment
+  uint64_t requests_duplicated = 0;    // request impairment: handled twice
+  uint64_t requests_reordered = 0;     // request impairment: handled after the next one
+  uint64_t requests_corrupted = 0;     // request impairment: handled truncated
   uint64_t send_errors = 0;
 };
 

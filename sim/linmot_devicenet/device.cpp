@@ -466,8 +466,12 @@ void LinMotDnDevice::StartMotion(Motor mo, double target_mm, const sim::motion::
     m.resume_limits = limits;
     return;
   }
-  (void)m.axis.MoveTo(target_mm, limits, sim::motion::StartFrom::kDemand,
-                      sim::motion::ZeroLimits::kHoldPosition);
+  if (m.axis
+          .MoveTo(target_mm, limits, sim::motion::StartFrom::kDemand,
+                  sim::motion::ZeroLimits::kHoldPosition)
+          .ok()) {
+    started_motions_.push_back({mo, target_mm});
+  }
 }
 
 // Serial-mode position control: outside RUN the set-point is stored, the motor does not move.

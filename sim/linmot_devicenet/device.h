@@ -91,6 +91,14 @@ class LinMotDnDevice final : public IoApplication {
   std::optional<int32_t> Parameter(Motor motor, uint8_t get_id) const;
   const sim::motion::Axis& axis(Motor motor) const { return motors_[Index(motor)].axis; }
   const DnSimOptions& options() const { return options_; }
+  // Motion log for fault-injection properties: every motion the motor started (set-point moves,
+  // relative moves, curves, resumes), target in mm, in order. A retried or duplicated poll
+  // that the toggle handshake ignored leaves no entry.
+  struct StartedMotion {
+    Motor motor = Motor::kA;
+    double target_mm = 0;
+  };
+  const std::vector<StartedMotion>& started_motions() const { return started_motions_; }
 
  private:
   struct Latch {
@@ -186,6 +194,7 @@ class LinMotDnDevice final : public IoApplication {
   dn::IoLayout poll_layout_;
   dn::IoLayout cos_layout_;
   std::array<MotorState, 4> motors_{};
+  std::vector<StartedMotion> started_motions_;
 
   // Time.
   Duration sim_time_{0};

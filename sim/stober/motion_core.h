@@ -126,6 +126,10 @@ class MotionCore {
   // The next cycle samples Execute as if it had been low at the previous one: the device's
   // fieldbus input latch (sim/stober/axis_device.h, decision 1182) saw a low level in between.
   void LatchExecuteLow() { previous_execute_ = false; }
+  // Motion log for fault-injection properties: the target of every positioning command (1-3)
+  // the core started, in order. A repeated Execute edge that started the command again leaves
+  // a second entry (a relative move executed twice shows up as two different targets).
+  const std::vector<double>& started_targets() const { return started_targets_; }
 
   // --- Fault injection and simulated inputs -------------------------------------------------
   // Force a limit-switch / reference-switch signal (nullopt = follow the simulated position).
@@ -351,6 +355,7 @@ class MotionCore {
 
   // MoveAdditive base (§3.4.6, G-16).
   std::optional<double> last_set_position_;
+  std::vector<double> started_targets_;
   bool window_reached_ = false;
   bool window_left_ = false;
 

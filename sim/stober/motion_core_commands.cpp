@@ -317,6 +317,7 @@ void MotionCore::StartPositioning(Command command) {
   end_velocity_ = Get("I429");  // latched with the other inputs (L183)
   // Only 1-3 produce a valid set position (L745, G-16).
   last_set_position_ = target_;
+  started_targets_.push_back(target_);
   window_reached_ = window_left_ = false;
   ReleaseBrake();
   plc_ = PlcState::kDiscreteMotion;

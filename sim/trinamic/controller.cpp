@@ -263,7 +263,10 @@ void Controller::Execute(const Command& c) {
       } else if (!Moving(m)) {
         s.target = static_cast<int32_t>(v[1]);
         s.decelerating = false;
-        if (s.target != s.position) s.action = Action::kRamp;
+        if (s.target != s.position) {
+          s.action = Action::kRamp;
+          started_targets_.push_back({m, s.target});
+        }
       }
       break;
     case Opcode::kActivatePi:  // L703-709: immediate, clears the integral (§5.6)
@@ -280,6 +283,7 @@ void Controller::Execute(const Command& c) {
     case Opcode::kSetTarget:  // L720-726: mode unchanged
       s.target = static_cast<int32_t>(v[1]);
       s.decelerating = false;
+      started_targets_.push_back({m, s.target});
       break;
     case Opcode::kSetPosition:  // L728-734: counter only; the rotor stays
       s.position = static_cast<int32_t>(v[1]);

@@ -164,6 +164,14 @@ class Controller {
   // ---- Introspection and fault injection (§7 "Test support") ----
   const MotorRegisters& registers(int motor) const { return regs_[motor]; }
   const MotorState& state(int motor) const { return state_[motor]; }
+  // Motion log for fault-injection properties: every ramp target a word started or changed
+  // (`$1A` start ramp, `$1E` set target), as (motor, target), in order.
+  struct StartedTarget {
+    int motor = 0;
+    int32_t target = 0;
+    friend bool operator==(const StartedTarget&, const StartedTarget&) = default;
+  };
+  const std::vector<StartedTarget>& started_targets() const { return started_targets_; }
   const Globals& globals() const { return globals_; }
   uint8_t address() const { return address_; }
   bool reset_flag() const { return reset_flag_; }
@@ -228,6 +236,7 @@ class Controller {
   Globals globals_;
   std::array<MotorRegisters, 6> regs_{};
   std::array<MotorState, 6> state_{};
+  std::vector<StartedTarget> started_targets_;
   std::array<int64_t, 6> accumulator_{};
   std::array<int, 6> switch_samples_{};
   std::array<std::optional<bool>, 6> stuck_{};

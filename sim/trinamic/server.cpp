@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <utility>
 
+#include "absl/strings/str_cat.h"
 #include "adapters/trinamic/codec.h"
 
 namespace drivegw::sim::trinamic {
@@ -128,6 +129,35 @@ void TrinamicServer::AdvanceUnitLocked(Unit& unit, TimePoint now) {
 
 void TrinamicServer::ReplyLocked(const Unit& unit, std::vector<uint8_t> bytes, TimePoint at) {
   if (options_.faults.silent) return;
+  if (reply_impairment_) {
+    const transport::ImpairmentDecision d = reply_impairment_->Decide();
+    if (d.drop) {
+      ++counters_.replies_impaired_dropped;
+      return;
+    }
+    if (d.corrupt) {  // line noise: one bit of the reply flipped (decision 1421)
+      ++counters_.replies_impaired_corrupted;
+      transport::FlipBit(bytes, d.corrupt_bits);
+    }
+    if (d.reorder && !held_reply_) {
+      ++counters_.replies_impaired_reordered;
+      held_reply_ = std::move(bytes);
+      return;
+    }
+    std::optional<std::vector<uint8_t>> held;
+    held.swap(held_reply_);
+    if (d.duplicate) {
+      ++counters_.replies_impaired_duplicated;
+      ReplyNowLocked(unit, bytes, at);
+    }
+    ReplyNowLocked(unit, std::move(bytes), at);
+    if (held) ReplyNowLocked(unit, std::move(*held), at);
+    return;
+  }
+  ReplyNowLocked(unit, std::move(bytes), at);
+}
+
+void TrinamicServer::ReplyNowLocked(const Unit& unit, std::vector<uint8_t> bytes, TimePoint at) {
   if (!options_.turnaround) {
     SendLocked(bytes);
     return;
@@ -190,6 +220,70 @@ void TrinamicServer::HandleLocked(Unit& unit, const drivegw::trinamic::Command& 
   if (reply) ReplyLocked(unit, *std::move(reply), now);
 }
 
+void TrinamicServer::ImpairWordLocked(Unit& unit, const drivegw::trinamic::Command& command,
+                                      TimePoint now) {
+  if (!word_impairment_) {
+    HandleLocked(unit, command, now);
+    return;
+  }
+  const transport::ImpairmentDecision d = word_impairment_->Decide();
+  if (d.drop) {
+    ++counters_.words_impaired_dropped;
+    return;
+  }
+  if (d.corrupt) {
+    // A flipped bit fails the word's checksum byte: the PACK ignores it (L279 framing; the
+    // codec refuses a bad checksum), which on the line is a lost word.
+    ++counters_.words_impaired_corrupted;
+    return;
+  }
+  if (d.reorder && !held_word_) {
+    ++counters_.words_impaired_reordered;
+    held_word_ = command;
+    return;
+  }
+  HandleLocked(unit, command, now);
+  if (d.duplicate) {
+    ++counters_.words_impaired_duplicated;
+    HandleLocked(unit, command, now);
+  }
+  if (held_word_) {
+    const drivegw::trinamic::Command held = *held_word_;
+    held_word_.reset();
+    HandleLocked(unit, held, now);
+  }
+}
+
+absl::Status TrinamicServer::SetImpairment(const transport::Impairment& host_words,
+                                           const transport::Impairment& replies) {
+  for (const auto& [what, imp] :
+       {std::pair<const char*, const transport::Impairment&>{"host words", host_words},
+        {"replies", replies}}) {
+    if (auto s = transport::ImpairedLink::Validate(imp); !s.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat(what, " ", s.message()));
+    }
+    // A UART line loses or garbles bytes; it neither duplicates nor reorders them, and a second
+    // reply can only come from a second PACK at the same address, which the gateway rightly
+    // reports as such (decision 1055). Delays are the PACK's own turnaround (decision 1040).
+    if (imp.duplicate_probability != 0 || imp.reorder_probability != 0 ||
+        imp.delay_max.count() != 0) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          what, " impairment: a serial line takes only drop and corrupt (decision 1421), not ",
+          transport::ImpairmentString(imp)));
+    }
+  }
+  std::lock_guard lock(mu_);
+  if (units_.size() != 1) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("impairment needs one unit on the line, not ", units_.size()));
+  }
+  word_impairment_.emplace(host_words);
+  reply_impairment_.emplace(replies);
+  held_word_.reset();
+  held_reply_.reset();
+  return absl::OkStatus();
+}
+
 void TrinamicServer::ReceiveLocked(const std::vector<uint8_t>& bytes) {
   const TimePoint now = clock_.Now();
   counters_.bytes_in += bytes.size();
@@ -211,7 +305,7 @@ void TrinamicServer::ReceiveLocked(const std::vector<uint8_t>& bytes) {
     const uint16_t t41 = u.controller.globals().packet_timeout;
     const Duration timeout = t41 == 0 ? options_.default_packet_timeout : Duration(kTick * t41);
     u.words.Feed(bytes, now, timeout,
-                 [&](const drivegw::trinamic::Command& c) { HandleLocked(u, c, now); });
+                 [&](const drivegw::trinamic::Command& c) { ImpairWordLocked(u, c, now); });
   }
   FlushLocked(now);
 }

@@ -15,6 +15,7 @@
 
 #include "absl/status/statusor.h"
 #include "adapters/core/clock.h"
+#include "adapters/transport/impaired_link.h"
 #include "adapters/transport/pty.h"
 #include "sim/trinamic/controller.h"
 #include "sim/trinamic/options.h"
@@ -32,6 +33,17 @@ struct ServerCounters {
   uint64_t breaks = 0;       // breaks that discarded a partial word (L279)
   uint64_t noise_bytes = 0;  // bytes ignored at the wrong peer speed (check_peer_baud)
   uint64_t reset_bytes = 0;  // stray `00` bytes sent after `$CC` (L228, L902)
+  // SetImpairment (decision 1421): host words and replies dropped, duplicated, held back one
+  // (reordered) or corrupted (a host word with a bit flipped fails its checksum, so it is lost
+  // like a dropped one; a reply goes out with one bit flipped).
+  uint64_t words_impaired_dropped = 0;
+  uint64_t words_impaired_duplicated = 0;
+  uint64_t words_impaired_reordered = 0;
+  uint64_t words_impaired_corrupted = 0;
+  uint64_t replies_impaired_dropped = 0;
+  uint64_t replies_impaired_duplicated = 0;
+  uint64_t replies_impaired_reordered = 0;
+  uint64_t replies_impaired_corrupted = 0;
 };
 
 // Thread model: one thread owns the pty loop; public methods are thread-safe and serialised with
@@ -53,6 +65,12 @@ class TrinamicServer {
 
   // ---- fault injection and introspection (take effect at clock.Now()) ----
   void SetSilent(bool silent);
+  // Seeded faults on the serial line (decision 1421): `host_words` applies to every complete
+  // word from the host before the units execute it, `replies` to every reply. Only drop and
+  // corrupt: a UART line neither duplicates nor reorders, delays are the PACK's turnaround.
+  // InvalidArgument naming the field; FailedPrecondition with more than one unit on the line.
+  absl::Status SetImpairment(const transport::Impairment& host_words,
+                             const transport::Impairment& replies);
   void LoseSteps(int motor, int64_t steps);
   void SetStuckSwitch(int motor, std::optional<bool> level);
   // Runs `fn` on the controller under the lock after advancing it to clock.Now().
@@ -93,8 +111,11 @@ class TrinamicServer {
   void AdvanceLocked();
   void AdvanceUnitLocked(Unit& unit, TimePoint now);
   void ReceiveLocked(const std::vector<uint8_t>& bytes);
+  // Applies the host-word impairment (one unit on the line), then HandleLocked.
+  void ImpairWordLocked(Unit& unit, const drivegw::trinamic::Command& command, TimePoint now);
   void HandleLocked(Unit& unit, const drivegw::trinamic::Command& command, TimePoint now);
-  void ReplyLocked(const Unit& unit, std::vector<uint8_t> bytes, TimePoint at);
+  void ReplyLocked(const Unit& unit, std::vector<uint8_t> bytes, TimePoint at);  // impaired
+  void ReplyNowLocked(const Unit& unit, std::vector<uint8_t> bytes, TimePoint at);
   void FlushLocked(TimePoint now);
   void SendLocked(const std::vector<uint8_t>& bytes);
 
@@ -108,6 +129,10 @@ class TrinamicServer {
   TimePoint advanced_to_;
   bool reset_done_ = false;
   ServerCounters counters_;
+  std::optional<transport::ImpairedLink> word_impairment_;
+  std::optional<transport::ImpairedLink> reply_impairment_;
+  std::optional<drivegw::trinamic::Command> held_word_;
+  std::optional<std::vector<uint8_t>> held_reply_;
   std::deque<std::vector<uint8_t>> trace_;
   std::deque<WireEvent> wire_;
   std::atomic<bool> stop_{false};

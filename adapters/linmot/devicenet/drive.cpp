@@ -8,9 +8,9 @@
 #include <limits>
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "absl/strings/match.h"
 #include "absl/strings/str_join.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
@@ -791,11 +791,19 @@ absl::StatusOr<LinMotDnDrive::Transaction> LinMotDnDrive::TransactLocked(
   const Wait w =
       WaitLocked(lock, deadline, [&] { return tx_ && tx_->serial == serial && tx_->done; });
   if (w != Wait::kReached) {
+    // A command that went out in a poll may have been executed: only its echo was lost (issue
+    // 11 fault injection, decision 1422). Say so, so that a client does not blindly repeat a
+    // relative move.
+    const bool on_wire = tx_ && tx_->serial == serial && tx_->first_gen != 0;
     if (tx_ && tx_->serial == serial) tx_.reset();
-    return WaitFailure(w, what,
-                       absl::StrFormat("no echo of command word %s within the time-out "
-                                       "(linmot-devicenet.md §11.4)",
-                                       Hex16(t.slot.word)));
+    return WaitFailure(
+        w, what,
+        absl::StrFormat("no echo of command word %s within the time-out "
+                        "(linmot-devicenet.md §11.4)%s",
+                        Hex16(t.slot.word),
+                        on_wire ? "; it went out in a poll, so the drive may have executed it: "
+                                  "read the status before repeating it"
+                                : ""));
   }
   Transaction done = *tx_;
   tx_.reset();  // background reads resume with the next poll (one-shot commands leave, §11.4)
@@ -1251,7 +1259,8 @@ std::optional<Motor> MotorFor(const CommandSpec& spec, Motor motor) {
 // The command behind a parameter id, after the checks Read and Write share: no stored (ROM)
 // values in this generation (`rom_reason` says why for the operation), ids 0x00-0x7F, and a
 // command that §8.4 defines.
-absl::StatusOr<const CommandSpec*> ParameterCommand(const ParameterRef& ref, const std::string& where,
+absl::StatusOr<const CommandSpec*> ParameterCommand(const ParameterRef& ref,
+                                                    const std::string& where,
                                                     const char* rom_reason) {
   if (ref.rom) return absl::InvalidArgumentError(absl::StrCat(where, ".rom: ", rom_reason));
   if (ref.id > 0x7F) {

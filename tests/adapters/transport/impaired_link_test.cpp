@@ -188,5 +188,129 @@ TEST(ImpairedLink, AppliedToLoopbackSockets_ReceiverSeesDecidedCount) {
   EXPECT_EQ(expected, 100 - link.counters().dropped + link.counters().duplicated);
 }
 
+TEST(ImpairedLink, ReorderAndCorrupt_KeepTheDropDelayDuplicatePattern) {
+  // Reorder/corrupt draw from their own stream: switching them on leaves decision n's other
+  // fields as they were (the KnownSeed pins above stay valid for every seeded simulator test).
+  Impairment a = Lossy(17);
+  Impairment b = a;
+  b.reorder_probability = 0.3;
+  b.corrupt_probability = 0.3;
+  const auto da = Decisions(a, 2000);
+  const auto db = Decisions(b, 2000);
+  int reordered = 0, corrupted = 0;
+  for (size_t i = 0; i < da.size(); ++i) {
+    EXPECT_EQ(da[i].drop, db[i].drop) << i;
+    EXPECT_EQ(da[i].duplicate, db[i].duplicate) << i;
+    EXPECT_EQ(da[i].delay, db[i].delay) << i;
+    EXPECT_FALSE(da[i].reorder || da[i].corrupt) << i;
+    reordered += db[i].reorder;
+    corrupted += db[i].corrupt;
+    if (db[i].drop) {
+      EXPECT_FALSE(db[i].reorder || db[i].corrupt) << i;
+    }
+  }
+  EXPECT_GT(reordered, 0);
+  EXPECT_GT(corrupted, 0);
+}
+
+TEST(ImpairedLink, ReorderCorruptRates_MatchProbabilities_AndSeedDetermines) {
+  const Impairment imp{.reorder_probability = 0.2, .corrupt_probability = 0.4, .seed = 3};
+  ImpairedLink link(imp);
+  constexpr int kN = 20000;
+  for (int i = 0; i < kN; ++i) link.Decide();
+  EXPECT_NEAR(static_cast<double>(link.counters().reordered) / kN, 0.2, 0.02);
+  EXPECT_NEAR(static_cast<double>(link.counters().corrupted) / kN, 0.4, 0.02);
+  EXPECT_FALSE(link.transparent());
+  EXPECT_EQ(Decisions(imp, 500), Decisions(imp, 500));
+  Impairment other = imp;
+  other.seed = 4;
+  EXPECT_NE(Decisions(imp, 500), Decisions(other, 500));
+}
+
+TEST(ImpairedLink, CorruptBits_SpreadOverPositions) {
+  ImpairedLink link(Impairment{.corrupt_probability = 1, .seed = 11});
+  std::vector<int> hits(9 * 8, 0);
+  for (int i = 0; i < 5000; ++i) {
+    const auto d = link.Decide();
+    ASSERT_TRUE(d.corrupt);
+    std::vector<uint8_t> bytes(9, 0);
+    FlipBit(bytes, d.corrupt_bits);
+    int ones = 0;
+    for (size_t b = 0; b < bytes.size(); ++b) {
+      for (int bit = 0; bit < 8; ++bit) {
+        if (bytes[b] & (1u << bit)) {
+          ++ones;
+          ++hits[b * 8 + bit];
+        }
+      }
+    }
+    EXPECT_EQ(ones, 1);  // exactly one bit flipped
+    EXPECT_LT(TruncatedLength(9, d.corrupt_bits), 9u);
+  }
+  for (size_t i = 0; i < hits.size(); ++i) EXPECT_GT(hits[i], 0) << "bit " << i;
+  std::vector<uint8_t> empty;
+  FlipBit(empty, 5);  // no-op, no crash
+  EXPECT_EQ(TruncatedLength(0, 5), 0u);
+}
+
+TEST(ImpairedLinkValidate, ReorderCorrupt_NamedWhenOutOfRange) {
+  EXPECT_THAT(ImpairedLink::Validate(Impairment{.reorder_probability = 1.1}).message(),
+              HasSubstr("impairment.reorder_probability: 1.1"));
+  EXPECT_THAT(ImpairedLink::Validate(Impairment{.corrupt_probability = -1}).message(),
+              HasSubstr("impairment.corrupt_probability: -1"));
+}
+
+TEST(ParseImpairment, FullSpec_EveryField) {
+  auto imp =
+      ParseImpairment("drop=0.1,duplicate=0.05,reorder=0.02,corrupt=0.01,delay=1ms..5ms,seed=7");
+  ASSERT_TRUE(imp.ok()) << imp.status();
+  EXPECT_EQ(imp->drop_probability, 0.1);
+  EXPECT_EQ(imp->duplicate_probability, 0.05);
+  EXPECT_EQ(imp->reorder_probability, 0.02);
+  EXPECT_EQ(imp->corrupt_probability, 0.01);
+  EXPECT_EQ(imp->delay_min, 1ms);
+  EXPECT_EQ(imp->delay_max, 5ms);
+  EXPECT_EQ(imp->seed, 7u);
+  auto again = ParseImpairment(ImpairmentString(*imp));
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(again->delay_max, 5ms);
+  EXPECT_EQ(again->corrupt_probability, 0.01);
+  EXPECT_EQ(again->seed, 7u);
+}
+
+TEST(ParseImpairment, PartialSpec_DefaultsAndFixedDelay) {
+  auto imp = ParseImpairment("drop=0.1");
+  ASSERT_TRUE(imp.ok());
+  EXPECT_EQ(imp->seed, 1u);
+  EXPECT_EQ(imp->duplicate_probability, 0);
+  auto fixed = ParseImpairment("delay=250us");
+  ASSERT_TRUE(fixed.ok());
+  EXPECT_EQ(fixed->delay_min, 250us);
+  EXPECT_EQ(fixed->delay_max, 250us);
+}
+
+TEST(ParseImpairment, BadInput_NamesTheKey) {
+  struct Case {
+    const char* spec;
+    const char* message;
+  };
+  const Case cases[] = {
+      {"", "impair: empty"},
+      {"drop=1.5", "impair drop: '1.5' is outside [0, 1]"},
+      {"corrupt=x", "impair corrupt: 'x'"},
+      {"lose=0.1", "unknown key 'lose'"},
+      {"drop", "'drop' is not key=value"},
+      {"delay=5", "impair delay: '5' needs a unit"},
+      {"delay=5ms..1ms", "maximum below its minimum"},
+      {"delay=-1ms", "impair delay: '-1ms'"},
+      {"seed=-1", "impair seed: '-1'"},
+  };
+  for (const Case& c : cases) {
+    auto imp = ParseImpairment(c.spec);
+    EXPECT_EQ(imp.status().code(), absl::StatusCode::kInvalidArgument) << c.spec;
+    EXPECT_THAT(imp.status().message(), HasSubstr(c.message)) << c.spec;
+  }
+}
+
 }  // namespace
 }  // namespace drivegw::transport
