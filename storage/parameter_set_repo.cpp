@@ -116,9 +116,9 @@ absl::StatusOr<ApplyOperation> ReadOperation(const Statement& stmt) {
 absl::Status ValidateOperation(const ApplyOperation& op) {
   static constexpr std::string_view kStates[] = {"RUNNING", "SUCCEEDED", "FAILED",
                                                  "FAILED_ROLLBACK", "INTERRUPTED"};
-  static constexpr std::string_view kDriveStates[] = {
-      "PENDING", "APPLYING", "APPLIED", "ROLLED_BACK", "ROLLBACK_FAILED", "UNCHANGED",
-      "INTERRUPTED"};
+  static constexpr std::string_view kDriveStates[] = {"PENDING",     "APPLYING",        "APPLIED",
+                                                      "ROLLED_BACK", "ROLLBACK_FAILED", "UNCHANGED",
+                                                      "INTERRUPTED"};
   if (op.set_name.empty()) return absl::InvalidArgumentError("apply_operation.set_name: empty");
   if (op.set_version < 0) {
     return absl::InvalidArgumentError(

@@ -26,7 +26,7 @@ struct ParameterValue {
 };
 
 struct ParameterSetVersion {
-  int version = 0;  // 1, 2, ...
+  int version = 0;                     // 1, 2, ...
   std::vector<ParameterValue> values;  // ordered as written; one entry per parameter
   std::string author;
   std::string comment;
@@ -34,16 +34,16 @@ struct ParameterSetVersion {
 };
 
 struct ParameterSet {
-  std::string name;         // unique, 1..128 chars [A-Za-z0-9._-]
-  std::string family;       // "linmot", "trinamic", ...
-  std::string model;        // optional drive model ("" = any model of the family)
+  std::string name;    // unique, 1..128 chars [A-Za-z0-9._-]
+  std::string family;  // "linmot", "trinamic", ...
+  std::string model;   // optional drive model ("" = any model of the family)
   std::string description;
   bool target_stored = false;  // LinMot: write the ROM (stored) values instead of RAM
   std::string author;          // of the newest version
   Time created_at{};
   Time updated_at{};
-  int version = 0;             // newest version number
-  std::string etag;            // changes with every update; opaque to clients
+  int version = 0;                     // newest version number
+  std::string etag;                    // changes with every update; opaque to clients
   std::vector<ParameterValue> values;  // of the newest version
 };
 

@@ -88,9 +88,9 @@ struct ParameterApplier::Impl {
     }
     if (!request.per_drive_values.empty() &&
         request.per_drive_values.size() != request.drives.size()) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "per_drive_values: ", request.per_drive_values.size(), " lists for ",
-          request.drives.size(), " drives"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("per_drive_values: ", request.per_drive_values.size(), " lists for ",
+                       request.drives.size(), " drives"));
     }
     std::set<std::string> names;
     for (const Drive* d : request.drives) {
@@ -116,17 +116,18 @@ struct ParameterApplier::Impl {
       return out;
     }
     for (size_t i = 0; i < request.drives.size(); ++i) {
-      absl::StatusOr<std::vector<Resolved>> values = Resolve(
-          set, **catalogue, request.per_drive_values[i], DriveName(*request.drives[i]));
+      absl::StatusOr<std::vector<Resolved>> values =
+          Resolve(set, **catalogue, request.per_drive_values[i], DriveName(*request.drives[i]));
       if (!values.ok()) return values.status();
       out.push_back(*std::move(values));
     }
     return out;
   }
 
-  static absl::StatusOr<std::vector<Resolved>> Resolve(
-      const storage::ParameterSet& set, const ParameterCatalogue& catalogue,
-      const std::vector<ParameterValue>& values, const std::string& drive) {
+  static absl::StatusOr<std::vector<Resolved>> Resolve(const storage::ParameterSet& set,
+                                                       const ParameterCatalogue& catalogue,
+                                                       const std::vector<ParameterValue>& values,
+                                                       const std::string& drive) {
     std::vector<Resolved> out;
     out.reserve(values.size());
     for (const ParameterValue& v : values) {
@@ -286,8 +287,8 @@ struct ParameterApplier::Impl {
     };
     for (size_t i = 0; i < request.drives.size(); ++i) {
       ApplyDriveResult& result = op.drives[i];
-      const bool ok = ApplyToDrive(*request.drives[i], values[i], rom, request.dry_run, result,
-                                   store_running);
+      const bool ok =
+          ApplyToDrive(*request.drives[i], values[i], rom, request.dry_run, result, store_running);
       if (!ok) {
         // Stop at the first failing drive: the next drives keep their values (PENDING).
         op.state = result.state == kRollbackFailed ? kFailedRollback : kFailed;

@@ -19,7 +19,7 @@
 namespace drivegw::server {
 
 struct ApplyRequest {
-  storage::ParameterSet set;  // the version to apply (values resolved: id filled in)
+  storage::ParameterSet set;   // the version to apply (values resolved: id filled in)
   std::vector<Drive*> drives;  // each must be of set.family
   bool dry_run = false;        // read and compare only: report what would change, write nothing
   std::string principal;
@@ -50,8 +50,7 @@ class ParameterApplier {
   // sequence) updating the stored operation as each drive finishes. `on_done` (optional) is called
   // with the final operation.
   absl::StatusOr<storage::ApplyOperation> Start(
-      ApplyRequest request,
-      std::function<void(const storage::ApplyOperation&)> on_done = nullptr);
+      ApplyRequest request, std::function<void(const storage::ApplyOperation&)> on_done = nullptr);
   // Runs the same steps on the caller's thread and returns the final operation (tests, bench).
   absl::StatusOr<storage::ApplyOperation> Run(ApplyRequest request);
 

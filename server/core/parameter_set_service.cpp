@@ -85,7 +85,8 @@ v1::Operation ToProto(const storage::ApplyOperation& op) {
   *p.mutable_create_time() = ToProto(op.created_at);
   *p.mutable_update_time() = ToProto(op.updated_at);
   p.set_target_stored(op.target_stored);
-  if (!op.restores.empty()) p.set_restores(absl::StrCat(std::string(kOperationPrefix), op.restores));
+  if (!op.restores.empty())
+    p.set_restores(absl::StrCat(std::string(kOperationPrefix), op.restores));
   return p;
 }
 
@@ -100,8 +101,8 @@ absl::StatusOr<std::string> OperationId(const std::string& field, const std::str
   absl::string_view id = name;
   if (absl::StartsWith(id, kOperationPrefix)) id.remove_prefix(kOperationPrefix.size());
   if (id.empty() || absl::StrContains(id, '/')) {
-    return FieldError(
-        field, absl::StrCat("'", name, "' is not an operation name (\"operations/{op}\")"));
+    return FieldError(field,
+                      absl::StrCat("'", name, "' is not an operation name (\"operations/{op}\")"));
   }
   return std::string(id);
 }
