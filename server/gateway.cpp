@@ -23,13 +23,13 @@
 #include "adapters/stober/factory.h"
 #include "adapters/transport/can_channel.h"
 #include "adapters/trinamic/factory.h"
+#include "server/core/curve_set_service.h"
+#include "server/core/parameter_apply.h"
+#include "server/core/audit_service.h"
+#include "server/core/drive_event_recorder.h"
+#include "server/core/parameter_set_service.h"
 #include "server/auth/authenticator.h"
 #include "server/auth/token_service.h"
-#include "server/core/audit_service.h"
-#include "server/core/curve_set_service.h"
-#include "server/core/drive_event_recorder.h"
-#include "server/core/parameter_apply.h"
-#include "server/core/parameter_set_service.h"
 #include "server/grpc/audit_service_grpc.h"
 #include "server/grpc/call_auth.h"
 #include "server/grpc/curve_set_service_grpc.h"
@@ -96,9 +96,9 @@ absl::StatusOr<std::unique_ptr<sim::trinamic::TrinamicServer>> StartTrinamicDemo
   so.pty_path = pty_path;
   auto server = sim::trinamic::TrinamicServer::Start(so, SteadyClock::Instance());
   if (!server.ok()) {
-    return absl::Status(
-        server.status().code(),
-        absl::StrCat("demo drives 'feeder-x'/'feeder-y' simulator: ", server.status().message()));
+    return absl::Status(server.status().code(),
+                        absl::StrCat("demo drives 'feeder-x'/'feeder-y' simulator: ",
+                                     server.status().message()));
   }
   return server;
 }
@@ -135,9 +135,9 @@ absl::StatusOr<std::unique_ptr<sim::stober::AxisServer>> StartStoberDemo(const D
   so.axis.extrapolation_ms = kDemoStoberExtrapolationMs;
   auto server = sim::stober::AxisServer::Start(so, clock);
   if (!server.ok()) {
-    return absl::Status(
-        server.status().code(),
-        absl::StrCat("demo drive '", drive.name, "' simulator: ", server.status().message()));
+    return absl::Status(server.status().code(),
+                        absl::StrCat("demo drive '", drive.name,
+                                     "' simulator: ", server.status().message()));
   }
   return server;
 }
@@ -252,14 +252,11 @@ struct Gateway::Impl {
   std::unique_ptr<OpsServiceGrpc> ops_service;
 };
 
-absl::StatusOr<std::pair<std::string, uint16_t>> SplitHostPort(const std::string& field,
-                                                               const std::string& value) {
+absl::StatusOr<std::pair<std::string, uint16_t>> SplitHostPort(const std::string& field, const std::string& value) {
   const auto colon = value.rfind(':');
   uint32_t port = 0;
-  if (colon == std::string::npos || !absl::SimpleAtoi(value.substr(colon + 1), &port) ||
-      port > 65535) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(field, ": '", value, "' is not host:port (port 0..65535)"));
+  if (colon == std::string::npos || !absl::SimpleAtoi(value.substr(colon + 1), &port) || port > 65535) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": '", value, "' is not host:port (port 0..65535)"));
   }
   std::string host = value.substr(0, colon);
   if (host.empty()) host = "0.0.0.0";
@@ -294,9 +291,9 @@ absl::Status StartAuth(const config::GatewayConfig& cfg, Gateway::Impl& impl) {
                                    .Add("insecure", cfg.auth.insecure ? "true" : "false")
                                    .Add("grpc", cfg.listen.grpc)
                                    .Add("http", cfg.listen.http));
-    log::Warn("auth_disabled", log::Fields().Add("hint",
-                                                 "set auth.enabled: true and create tokens with "
-                                                 "'drivegw token create' (docs/config.md)"));
+    log::Warn("auth_disabled", log::Fields().Add(
+                                   "hint", "set auth.enabled: true and create tokens with "
+                                           "'drivegw token create' (docs/config.md)"));
   }
   return absl::OkStatus();
 }
@@ -306,8 +303,7 @@ absl::Status StartAuth(const config::GatewayConfig& cfg, Gateway::Impl& impl) {
 Gateway::Gateway(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Gateway::~Gateway() { Stop(); }
 
-absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options,
-                                                        const Clock& clock) {
+absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, const Clock& clock) {
   auto impl = std::make_unique<Impl>();
   impl->clock = &clock;
   config::GatewayConfig& cfg = options.config;
@@ -317,9 +313,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options,
   // Storage first: a gateway that cannot audit does not start.
   std::error_code ec;
   std::filesystem::create_directories(cfg.data_dir, ec);
-  if (ec)
-    return absl::FailedPreconditionError(
-        absl::StrCat("data_dir: cannot create '", cfg.data_dir, "': ", ec.message()));
+  if (ec) return absl::FailedPreconditionError(absl::StrCat("data_dir: cannot create '", cfg.data_dir, "': ", ec.message()));
   const std::string db_path = (std::filesystem::path(cfg.data_dir) / "drivegw.db").string();
   DGW_ASSIGN_OR_RETURN(storage::Db db, storage::Db::Open(db_path));
   impl->db = std::make_unique<storage::Db>(std::move(db));
@@ -335,23 +329,19 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options,
   if (cfg.demo) {
     // Checked before any simulator starts.
     DGW_ASSIGN_OR_RETURN(const CanBusConfig canopen_bus, DemoCanOpenBus(options));
-    drive_configs =
-        config::DemoDrives(options.demo_first_port == 0 ? 49360 : options.demo_first_port);
+    drive_configs = config::DemoDrives(options.demo_first_port == 0 ? 49360 : options.demo_first_port);
     for (size_t i = 0; i < drive_configs.size(); ++i) {
       DriveConfig& dc = drive_configs[i];
       sim::linmot::SimOptions so;
       so.name = dc.name;
-      DGW_ASSIGN_OR_RETURN(
-          so.bind, transport::Endpoint::Parse(dc.linudp->host,
-                                              options.demo_first_port == 0 ? 0 : dc.linudp->port));
+      DGW_ASSIGN_OR_RETURN(so.bind, transport::Endpoint::Parse(dc.linudp->host, options.demo_first_port == 0 ? 0 : dc.linudp->port));
       so.master_port = options.demo_master_port;
       so.stroke_min_mm = dc.axis.min_mm;
       so.stroke_max_mm = dc.axis.max_mm;
       auto server = sim::linmot::LinMotServer::Start(so, clock);
       if (!server.ok()) {
-        return absl::Status(
-            server.status().code(),
-            absl::StrCat("demo drive '", dc.name, "' simulator: ", server.status().message()));
+        return absl::Status(server.status().code(),
+                            absl::StrCat("demo drive '", dc.name, "' simulator: ", server.status().message()));
       }
       dc.linudp->port = (*server)->port();
       dc.linudp->master_port = options.demo_master_port;
@@ -377,9 +367,8 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options,
     dso.mac_id = *dn.mac_id;
     auto dn_server = sim::linmot_devicenet::LinMotDnServer::Start(dso, clock);
     if (!dn_server.ok()) {
-      return absl::Status(
-          dn_server.status().code(),
-          absl::StrCat("demo drive '", dn.name, "' simulator: ", dn_server.status().message()));
+      return absl::Status(dn_server.status().code(),
+                          absl::StrCat("demo drive '", dn.name, "' simulator: ", dn_server.status().message()));
     }
     impl->dn_sims[dn.name] = std::move(*dn_server);
     drive_configs.push_back(std::move(dn));
@@ -405,8 +394,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options,
 
   // One configuration snapshot per start, so the audit trail knows what was running.
   storage::ConfigRepo repo(*impl->db);
-  if (auto s = repo.SaveSnapshot(cfg.demo ? "demo" : "config", cfg.source_yaml,
-                                 static_cast<int>(drive_configs.size()));
+  if (auto s = repo.SaveSnapshot(cfg.demo ? "demo" : "config", cfg.source_yaml, static_cast<int>(drive_configs.size()));
       !s.ok()) {
     return s.status();
   }
@@ -445,8 +433,9 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options,
   impl->parameter_set_service = std::make_unique<ParameterSetServiceGrpc>(
       *impl->parameter_set_core, *impl->pool, *impl->call_auth, impl->idempotency.get());
   impl->curve_sets = std::make_unique<storage::CurveSetRepo>(*impl->db);
-  impl->curve_set_core = std::make_unique<CurveSetServiceCore>(
-      *impl->curve_sets, impl->drives, impl->audit.get(), impl->leases.get());
+  impl->curve_set_core =
+      std::make_unique<CurveSetServiceCore>(*impl->curve_sets, impl->drives, impl->audit.get(),
+                                            impl->leases.get());
   impl->curve_set_service = std::make_unique<CurveSetServiceGrpc>(
       *impl->curve_set_core, *impl->pool, *impl->call_auth, impl->idempotency.get());
   impl->lease_core =
@@ -458,8 +447,7 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options,
 
   impl->drive_events = std::make_unique<DriveEventRecorder>(impl->drives, impl->audit.get());
   impl->audit_core = std::make_unique<AuditServiceCore>(*impl->audit);
-  impl->audit_service =
-      std::make_unique<AuditServiceGrpc>(*impl->audit_core, *impl->pool, *impl->call_auth);
+  impl->audit_service = std::make_unique<AuditServiceGrpc>(*impl->audit_core, *impl->pool, *impl->call_auth);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   impl->ops_core =
@@ -476,16 +464,16 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options,
     std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
     std::set<std::string, std::less<>> raw_methods(std::begin(DriveServiceGrpc::kRawMethods),
                                                    std::end(DriveServiceGrpc::kRawMethods));
-    impl->rpc_metrics = std::make_unique<ops::RpcMetrics>(
-        ops::DefaultRegistry(), std::move(families), std::move(raw_methods));
+    impl->rpc_metrics = std::make_unique<ops::RpcMetrics>(ops::DefaultRegistry(), std::move(families),
+                                                          std::move(raw_methods));
     creators.push_back(ops::MakeRpcMetricsFactory(*impl->rpc_metrics));
     builder.experimental().SetInterceptorCreators(std::move(creators));
   }
   DGW_ASSIGN_OR_RETURN(auto grpc_addr, SplitHostPort("listen.grpc", cfg.listen.grpc));
   // TLS (and client certificates) on the network port only; the REST front end's in-process
   // channel below never passes through it (decision 023).
-  builder.AddListeningPort(absl::StrCat(grpc_addr.first, ":", grpc_addr.second),
-                           GrpcServerCredentials(cfg.tls), &impl->grpc_port);
+  builder.AddListeningPort(absl::StrCat(grpc_addr.first, ":", grpc_addr.second), GrpcServerCredentials(cfg.tls),
+                           &impl->grpc_port);
   builder.RegisterService(impl->service.get());
   builder.RegisterService(impl->parameter_set_service.get());
   builder.RegisterService(impl->curve_set_service.get());
@@ -531,17 +519,14 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options,
   // Read-only unary GETs straight into the core on the Beast thread, through the same CallAuth
   // and RPC metrics (decision 1331, amending 501).
   if (options.rest_direct_reads) {
-    ro.direct_unary =
-        rest::DriveServiceDirectReads(*impl->core, *impl->call_auth, *impl->rpc_metrics);
+    ro.direct_unary = rest::DriveServiceDirectReads(*impl->core, *impl->call_auth, *impl->rpc_metrics);
   }
   if (cfg.tls) {
-    ro.tls = rest::RestTls{cfg.tls->cert_pem, cfg.tls->key_pem, cfg.tls->client_ca_pem,
-                           cfg.tls->require_client_cert};
+    ro.tls = rest::RestTls{cfg.tls->cert_pem, cfg.tls->key_pem, cfg.tls->client_ca_pem, cfg.tls->require_client_cert};
   }
   auto rest = rest::RestServer::Start(std::move(ro));
   if (!rest.ok()) {
-    return absl::Status(rest.status().code(),
-                        absl::StrCat("listen.http: ", rest.status().message()));
+    return absl::Status(rest.status().code(), absl::StrCat("listen.http: ", rest.status().message()));
   }
   impl->rest = std::move(*rest);
 
@@ -568,15 +553,12 @@ sim::linmot::LinMotServer* Gateway::demo_simulator(const std::string& drive) con
   return it == impl_->sims.end() ? nullptr : it->second.get();
 }
 
-sim::linmot_devicenet::LinMotDnServer* Gateway::demo_devicenet_simulator(
-    const std::string& drive) const {
+sim::linmot_devicenet::LinMotDnServer* Gateway::demo_devicenet_simulator(const std::string& drive) const {
   auto it = impl_->dn_sims.find(drive);
   return it == impl_->dn_sims.end() ? nullptr : it->second.get();
 }
 
-sim::trinamic::TrinamicServer* Gateway::demo_trinamic_simulator() const {
-  return impl_->trinamic_sim.get();
-}
+sim::trinamic::TrinamicServer* Gateway::demo_trinamic_simulator() const { return impl_->trinamic_sim.get(); }
 
 sim::stober::AxisServer* Gateway::demo_stober_simulator() const { return impl_->stober_sim.get(); }
 
@@ -616,8 +598,8 @@ bool Gateway::Shutdown(std::chrono::milliseconds bound) {
       log::Error("shutdown_checkpoint_failed", log::Fields().Add("error", s.message()));
     }
   }
-  const auto took = std::chrono::duration_cast<std::chrono::milliseconds>(
-      std::chrono::steady_clock::now() - start);
+  const auto took =
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start);
   log::Info("shutdown_done", log::Fields()
                                  .Add("stopped", absl::StrJoin(report.stopped, ","))
                                  .Add("still_moving", absl::StrJoin(report.still_moving, ","))
@@ -633,11 +615,10 @@ void Gateway::Stop() {
     ops::DefaultRegistry().RemoveCollector(impl_->drive_collector);
     impl_->drive_collector = 0;
   }
-  if (impl_->core) impl_->core->Shutdown();              // ends watch streams
+  if (impl_->core) impl_->core->Shutdown();  // ends watch streams
   if (impl_->audit_core) impl_->audit_core->Shutdown();  // ends audit watch streams
   if (impl_->rest) impl_->rest->Stop();
-  if (impl_->grpc_server)
-    impl_->grpc_server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
+  if (impl_->grpc_server) impl_->grpc_server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   if (impl_->pool) impl_->pool->Shutdown();
   if (impl_->drive_events) impl_->drive_events->Stop();
   for (auto& d : impl_->drives) d->Deactivate();
