@@ -11,6 +11,7 @@
 #include <dirent.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
+#include <malloc.h>
 
 #include <atomic>
 #include <chrono>
@@ -21,6 +22,7 @@
 #include <iostream>
 #include <limits>
 #include <random>
+#include <set>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -45,6 +47,8 @@ struct Usage {
   int64_t rss_kb = 0;
   int threads = 0;
   int fds = 0;
+  int64_t heap_in_use_kb = 0;  // malloc's bytes in use (mallinfo2): live objects, not arenas
+  std::multiset<std::string> thread_names;  // /proc/self/task/*/comm: who to blame on a change
 };
 
 Usage Sample() {
@@ -55,6 +59,18 @@ Usage Sample() {
     if (line.rfind("VmRSS:", 0) == 0) u.rss_kb = std::stoll(line.substr(6));
     if (line.rfind("Threads:", 0) == 0) u.threads = std::stoi(line.substr(8));
   }
+  const struct mallinfo2 mi = ::mallinfo2();
+  u.heap_in_use_kb = static_cast<int64_t>((mi.uordblks + mi.hblkhd) / 1024);
+  if (DIR* d = ::opendir("/proc/self/task")) {
+    while (dirent* e = ::readdir(d)) {
+      if (e->d_name[0] == '.') continue;
+      std::ifstream comm(std::string("/proc/self/task/") + e->d_name + "/comm");
+      std::string name;
+      std::getline(comm, name);
+      u.thread_names.insert(name);
+    }
+    ::closedir(d);
+  }
   if (DIR* d = ::opendir("/proc/self/fd")) {
     while (dirent* e = ::readdir(d)) u.fds += e->d_name[0] != '.' ? 1 : 0;
     ::closedir(d);
@@ -64,7 +80,8 @@ Usage Sample() {
 }
 
 std::ostream& operator<<(std::ostream& o, const Usage& u) {
-  return o << "rss " << u.rss_kb << " kB, " << u.threads << " threads, " << u.fds << " fds";
+  return o << "rss " << u.rss_kb << " kB (heap in use " << u.heap_in_use_kb << " kB), " << u.threads
+           << " threads, " << u.fds << " fds";
 }
 
 int EnvInt(const char* name, int fallback) {
@@ -237,7 +254,10 @@ TEST_F(SoakTest, OfflineOnlineCycles_EveryFamily_RssFdsThreadsFlat) {
   // Decision 1442: equal threads and descriptors; resident memory within 8 MiB of the warm
   // sample (allocator arenas and gRPC's slab caches settle within that; a leak of even 1 kB
   // per cycle would exceed it over a long run, and 8 kB per cycle over the CI run).
-  EXPECT_EQ(end.threads, warm.threads);
+  std::string names_warm, names_end;
+  for (const auto& n : warm.thread_names) names_warm += " " + n;
+  for (const auto& n : end.thread_names) names_end += " " + n;
+  EXPECT_EQ(end.threads, warm.threads) << "warm:" << names_warm << "\nend: " << names_end;
   EXPECT_EQ(end.fds, warm.fds);
   EXPECT_LT(end.rss_kb - warm.rss_kb, 8 * 1024) << "warm " << warm << "; end " << end;
 }
