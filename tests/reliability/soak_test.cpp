@@ -12,6 +12,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 #include <malloc.h>
+#include <sqlite3.h>
 
 #include <atomic>
 #include <chrono>
@@ -28,6 +29,8 @@
 #include <thread>
 #include <vector>
 
+#include "absl/strings/match.h"
+#include "absl/strings/str_split.h"
 #include "adapters/core/log.h"
 #include "drivegw/v1/drive.grpc.pb.h"
 #include "server/gateway.h"
@@ -48,6 +51,7 @@ struct Usage {
   int threads = 0;
   int fds = 0;
   int64_t heap_in_use_kb = 0;  // malloc's bytes in use (mallinfo2): live objects, not arenas
+  int64_t sqlite_kb = 0;       // of which SQLite's (page cache, schema, statements)
   std::multiset<std::string> thread_names;  // /proc/self/task/*/comm: who to blame on a change
 };
 
@@ -61,6 +65,7 @@ Usage Sample() {
   }
   const struct mallinfo2 mi = ::mallinfo2();
   u.heap_in_use_kb = static_cast<int64_t>((mi.uordblks + mi.hblkhd) / 1024);
+  u.sqlite_kb = static_cast<int64_t>(sqlite3_memory_used() / 1024);
   if (DIR* d = ::opendir("/proc/self/task")) {
     while (dirent* e = ::readdir(d)) {
       if (e->d_name[0] == '.') continue;
@@ -80,8 +85,16 @@ Usage Sample() {
 }
 
 std::ostream& operator<<(std::ostream& o, const Usage& u) {
-  return o << "rss " << u.rss_kb << " kB (heap in use " << u.heap_in_use_kb << " kB), " << u.threads
-           << " threads, " << u.fds << " fds";
+  return o << "rss " << u.rss_kb << " kB (heap in use " << u.heap_in_use_kb << " kB, SQLite "
+           << u.sqlite_kb << " kB), " << u.threads << " threads, " << u.fds << " fds";
+}
+
+// gRPC's own executor ("default-executor", grpc/src/core/lib/iomgr/executor.cc, names cut to 15
+// characters) starts threads on demand up to max(1, 2 x cores) and keeps them.
+std::multiset<std::string> WithoutGrpcExecutor(const Usage& u) {
+  std::multiset<std::string> out = u.thread_names;
+  out.erase("default-executo");
+  return out;
 }
 
 int EnvInt(const char* name, int fallback) {
@@ -209,6 +222,22 @@ TEST_F(SoakTest, OfflineOnlineCycles_EveryFamily_RssFdsThreadsFlat) {
       {"stober s1", {"s1"}, [s1](bool on) { s1->SetSilent(!on); }},
   };
   ASSERT_TRUE(Eventually([&] { return AllOnline(targets); }, 60s)) << "demo drives not online";
+  // DRIVEGW_SOAK_ONLY=<substring>[,<substring>...] cycles only the simulators whose label
+  // contains one of them ("linudp", "devicenet", "trinamic", "stober"): to find which family a
+  // growth belongs to.
+  if (const char* only = std::getenv("DRIVEGW_SOAK_ONLY"); only != nullptr && *only != '\0') {
+    std::vector<Target> kept;
+    for (auto& t : targets) {
+      for (absl::string_view part : absl::StrSplit(only, ',')) {
+        if (!part.empty() && absl::StrContains(t.label, part)) {
+          kept.push_back(t);
+          break;
+        }
+      }
+    }
+    ASSERT_FALSE(kept.empty()) << "DRIVEGW_SOAK_ONLY=" << only << " matches no simulator";
+    targets = std::move(kept);
+  }
 
   const int total = EnvInt("DRIVEGW_SOAK_CYCLES", 1000);
   const int minutes = EnvInt("DRIVEGW_SOAK_MINUTES", 0);
@@ -232,7 +261,7 @@ TEST_F(SoakTest, OfflineOnlineCycles_EveryFamily_RssFdsThreadsFlat) {
   Eventually(
       [&] {
         end = Sample();
-        return end.threads <= warm.threads && end.fds <= warm.fds;
+        return WithoutGrpcExecutor(end) == WithoutGrpcExecutor(warm) && end.fds <= warm.fds;
       },
       30s);
   const double seconds =
@@ -257,8 +286,21 @@ TEST_F(SoakTest, OfflineOnlineCycles_EveryFamily_RssFdsThreadsFlat) {
   std::string names_warm, names_end;
   for (const auto& n : warm.thread_names) names_warm += " " + n;
   for (const auto& n : end.thread_names) names_end += " " + n;
-  EXPECT_EQ(end.threads, warm.threads) << "warm:" << names_warm << "\nend: " << names_end;
+  // gRPC's executor's count follows the load the gRPC client of this test put on it, not the
+  // cycles. Every other thread must be there exactly as after the warm-up.
+  const auto grpc_executor_max =
+      static_cast<size_t>(std::max(1u, 2 * std::thread::hardware_concurrency()));
+  EXPECT_EQ(WithoutGrpcExecutor(end), WithoutGrpcExecutor(warm))
+      << "warm:" << names_warm << "\nend: " << names_end;
+  EXPECT_LE(end.thread_names.count("default-executo"), grpc_executor_max) << names_end;
   EXPECT_EQ(end.fds, warm.fds);
+  // Decision 1442: malloc's bytes in use outside SQLite within 1 MiB (live objects: a leak of
+  // 1 kB per cycle exceeds it within the CI run); SQLite's own memory is its page cache, which
+  // grows with the audit log up to cache_size (2000 KiB per connection, SQLite's default); RSS
+  // within 8 MiB (arenas and fragmentation on top of both).
+  EXPECT_LT((end.heap_in_use_kb - end.sqlite_kb) - (warm.heap_in_use_kb - warm.sqlite_kb), 1024)
+      << "warm " << warm << "; end " << end;
+  EXPECT_LT(end.sqlite_kb, 4 * 2000 + 1024) << "SQLite above its page caches";
   EXPECT_LT(end.rss_kb - warm.rss_kb, 8 * 1024) << "warm " << warm << "; end " << end;
 }
 
