@@ -7,6 +7,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "adapters/core/status.h"
 #include "storage/audit_log.h"
@@ -93,7 +94,7 @@ absl::StatusOr<ParameterSetVersion> DecodeVersion(const internal::VersionRow& ro
 
 constexpr const char* kOpColumns =
     "SELECT id, set_name, set_version, dry_run, state, principal, created_at, updated_at, "
-    "drives_json FROM apply_operations";
+    "drives_json, target_stored, restores FROM apply_operations";
 
 absl::StatusOr<ApplyOperation> ReadOperation(const Statement& stmt) {
   ApplyOperation op;
@@ -107,14 +108,17 @@ absl::StatusOr<ApplyOperation> ReadOperation(const Statement& stmt) {
   op.updated_at = ReadTime(stmt, 7);
   DGW_ASSIGN_OR_RETURN(op.drives,
                        DrivesFromJson(stmt.ColumnText(8), absl::StrCat("operation ", op.id)));
+  op.target_stored = stmt.ColumnInt(9) != 0;
+  op.restores = stmt.ColumnText(10);
   return op;
 }
 
 absl::Status ValidateOperation(const ApplyOperation& op) {
   static constexpr std::string_view kStates[] = {"RUNNING", "SUCCEEDED", "FAILED",
-                                                 "FAILED_ROLLBACK"};
-  static constexpr std::string_view kDriveStates[] = {"PENDING", "APPLIED", "ROLLED_BACK",
-                                                      "ROLLBACK_FAILED", "UNCHANGED"};
+                                                 "FAILED_ROLLBACK", "INTERRUPTED"};
+  static constexpr std::string_view kDriveStates[] = {"PENDING",     "APPLYING",        "APPLIED",
+                                                      "ROLLED_BACK", "ROLLBACK_FAILED", "UNCHANGED",
+                                                      "INTERRUPTED"};
   if (op.set_name.empty()) return absl::InvalidArgumentError("apply_operation.set_name: empty");
   if (op.set_version < 0) {
     return absl::InvalidArgumentError(
@@ -123,15 +127,20 @@ absl::Status ValidateOperation(const ApplyOperation& op) {
   if (std::find(std::begin(kStates), std::end(kStates), op.state) == std::end(kStates)) {
     return absl::InvalidArgumentError(
         absl::StrCat("apply_operation.state: '", op.state,
-                     "' is not RUNNING, SUCCEEDED, FAILED or FAILED_ROLLBACK"));
+                     "' is not RUNNING, SUCCEEDED, FAILED, FAILED_ROLLBACK or INTERRUPTED"));
   }
   for (size_t i = 0; i < op.drives.size(); ++i) {
     const std::string& s = op.drives[i].state;
     if (std::find(std::begin(kDriveStates), std::end(kDriveStates), s) == std::end(kDriveStates)) {
       return absl::InvalidArgumentError(
           absl::StrCat("apply_operation.drives[", i, "].state: '", s,
-                       "' is not PENDING, APPLIED, ROLLED_BACK, ROLLBACK_FAILED or UNCHANGED"));
+                       "' is not PENDING, APPLYING, APPLIED, ROLLED_BACK, ROLLBACK_FAILED, "
+                       "UNCHANGED or INTERRUPTED"));
     }
+  }
+  if (!op.restores.empty() && !absl::StartsWith(op.restores, kOpPrefix)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("apply_operation.restores: '", op.restores, "' is not an operation id"));
   }
   return absl::OkStatus();
 }
@@ -269,8 +278,8 @@ absl::StatusOr<ApplyOperation> ParameterSetRepo::CreateOperation(const ApplyOper
     DGW_ASSIGN_OR_RETURN(
         Statement insert,
         db_->Prepare("INSERT INTO apply_operations (set_name, set_version, dry_run, state, "
-                     "principal, created_at, updated_at, drives_json) "
-                     "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?6, ?7)"));
+                     "principal, created_at, updated_at, drives_json, target_stored, restores) "
+                     "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?6, ?7, ?8, ?9)"));
     DGW_RETURN_IF_ERROR(insert.Bind(1, std::string_view(stored.set_name)));
     DGW_RETURN_IF_ERROR(insert.Bind(2, stored.set_version));
     DGW_RETURN_IF_ERROR(insert.Bind(3, stored.dry_run ? 1 : 0));
@@ -278,6 +287,8 @@ absl::StatusOr<ApplyOperation> ParameterSetRepo::CreateOperation(const ApplyOper
     DGW_RETURN_IF_ERROR(insert.Bind(5, std::string_view(stored.principal)));
     DGW_RETURN_IF_ERROR(insert.Bind(6, std::string_view(ts)));
     DGW_RETURN_IF_ERROR(insert.Bind(7, std::string_view(drives_json)));
+    DGW_RETURN_IF_ERROR(insert.Bind(8, stored.target_stored ? 1 : 0));
+    DGW_RETURN_IF_ERROR(insert.Bind(9, std::string_view(stored.restores)));
     DGW_RETURN_IF_ERROR(insert.Run());
     // Still under the transaction's lock: the rowid is this INSERT's.
     stored.id = absl::StrCat(kOpPrefix, db_->LastInsertRowId());
@@ -337,6 +348,41 @@ absl::StatusOr<std::vector<ApplyOperation>> ParameterSetRepo::ListOperations(int
                        db_->Prepare(absl::StrCat(kOpColumns, " ORDER BY id DESC LIMIT ?1")));
   DGW_RETURN_IF_ERROR(stmt.Bind(1, limit == 0 ? kDefaultLimit : limit));
   return internal::ReadAll<ApplyOperation>(stmt, ReadOperation);
+}
+
+absl::StatusOr<std::vector<ApplyOperation>> ParameterSetRepo::InterruptRunning(
+    std::string_view reason) {
+  std::vector<ApplyOperation> out;
+  const Time now = NowMs();
+  const std::string ts = FormatTimestamp(now);
+  DGW_RETURN_IF_ERROR(db_->Transaction([&]() -> absl::Status {
+    out.clear();
+    DGW_ASSIGN_OR_RETURN(
+        Statement select,
+        db_->Prepare(absl::StrCat(kOpColumns, " WHERE state = 'RUNNING' ORDER BY id")));
+    DGW_ASSIGN_OR_RETURN(out, internal::ReadAll<ApplyOperation>(select, ReadOperation));
+    for (ApplyOperation& op : out) {
+      op.state = "INTERRUPTED";
+      for (ApplyDriveResult& d : op.drives) {
+        // PENDING drives were never touched; APPLYING ones may hold some of the set's values.
+        if (d.state != "APPLYING") continue;
+        d.state = "INTERRUPTED";
+        d.error = std::string(reason);
+      }
+      DGW_ASSIGN_OR_RETURN(const std::string drives_json, DrivesToJson(op.drives));
+      DGW_ASSIGN_OR_RETURN(Statement update,
+                           db_->Prepare("UPDATE apply_operations SET state = 'INTERRUPTED', "
+                                        "drives_json = ?2, updated_at = ?3 WHERE id = ?1"));
+      DGW_ASSIGN_OR_RETURN(const int64_t id, ParseOpId(op.id));
+      DGW_RETURN_IF_ERROR(update.Bind(1, id));
+      DGW_RETURN_IF_ERROR(update.Bind(2, std::string_view(drives_json)));
+      DGW_RETURN_IF_ERROR(update.Bind(3, std::string_view(ts)));
+      DGW_RETURN_IF_ERROR(update.Run());
+      op.updated_at = now;
+    }
+    return absl::OkStatus();
+  }));
+  return out;
 }
 
 }  // namespace drivegw::storage

@@ -26,7 +26,7 @@ struct ParameterValue {
 };
 
 struct ParameterSetVersion {
-  int version = 0;  // 1, 2, ...
+  int version = 0;                     // 1, 2, ...
   std::vector<ParameterValue> values;  // ordered as written; one entry per parameter
   std::string author;
   std::string comment;
@@ -34,16 +34,16 @@ struct ParameterSetVersion {
 };
 
 struct ParameterSet {
-  std::string name;         // unique, 1..128 chars [A-Za-z0-9._-]
-  std::string family;       // "linmot", "trinamic", ...
-  std::string model;        // optional drive model ("" = any model of the family)
+  std::string name;    // unique, 1..128 chars [A-Za-z0-9._-]
+  std::string family;  // "linmot", "trinamic", ...
+  std::string model;   // optional drive model ("" = any model of the family)
   std::string description;
   bool target_stored = false;  // LinMot: write the ROM (stored) values instead of RAM
   std::string author;          // of the newest version
   Time created_at{};
   Time updated_at{};
-  int version = 0;             // newest version number
-  std::string etag;            // changes with every update; opaque to clients
+  int version = 0;                     // newest version number
+  std::string etag;                    // changes with every update; opaque to clients
   std::vector<ParameterValue> values;  // of the newest version
 };
 
@@ -59,7 +59,10 @@ struct ApplyDriveResult {
   std::string drive;
   std::vector<ParameterValue> pre_image;  // values read before the first write
   std::vector<ParameterValue> written;    // values written and read back equal, in order
-  std::string state;   // "PENDING", "APPLIED", "ROLLED_BACK", "ROLLBACK_FAILED", "UNCHANGED"
+  // "PENDING", "APPLYING" (pre-image stored, writes under way), "APPLIED", "ROLLED_BACK",
+  // "ROLLBACK_FAILED", "UNCHANGED", "INTERRUPTED" (the gateway stopped while APPLYING: some
+  // values may be written, the pre-image restores all; decision 1441).
+  std::string state;
   std::string failed_parameter;  // name, "" if none
   std::string error;             // why it failed ("read back 120, wrote 300"), "" if none
 };
@@ -69,8 +72,12 @@ struct ApplyOperation {
   std::string set_name;
   int set_version = 0;
   bool dry_run = false;
-  std::string state;  // "RUNNING", "SUCCEEDED", "FAILED" (rolled back), "FAILED_ROLLBACK"
+  // "RUNNING", "SUCCEEDED", "FAILED" (rolled back), "FAILED_ROLLBACK", "INTERRUPTED" (found
+  // RUNNING at start-up: the process ended during the apply, decision 1441).
+  std::string state;
   std::vector<ApplyDriveResult> drives;
+  bool target_stored = false;  // ROM (stored) values were written, not RAM; fixed at creation
+  std::string restores;        // "op-<n>" when this writes back operation n's pre-image, else ""
   std::string principal;
   Time created_at{};
   Time updated_at{};
@@ -101,6 +108,10 @@ class ParameterSetRepo {
   absl::Status UpdateOperation(const ApplyOperation& op);                    // NotFound if absent
   absl::StatusOr<ApplyOperation> GetOperation(std::string_view id);
   absl::StatusOr<std::vector<ApplyOperation>> ListOperations(int limit = 100);  // newest first
+  // Start-up, before any apply can start: every RUNNING operation becomes INTERRUPTED (its
+  // APPLYING drives INTERRUPTED, with `reason` as their error) in one transaction; returns them
+  // as stored (decision 1441).
+  absl::StatusOr<std::vector<ApplyOperation>> InterruptRunning(std::string_view reason);
 
  private:
   Db* db_;

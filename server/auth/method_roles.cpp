@@ -53,6 +53,7 @@ constexpr Entry kTable[] = {
     {"ParameterSetService", "DeleteParameterSet", E},
     {"ParameterSetService", "CaptureParameterSet", E},
     {"ParameterSetService", "ApplyParameterSet", E},  // also its dry run: one method, one role
+    {"ParameterSetService", "RestoreOperation", E},   // an apply of the pre-image (1441)
     {"ParameterSetService", "ImportParameterSet", E},
     // curve_sets.proto
     {"CurveSetService", "GetCurveSet", V},

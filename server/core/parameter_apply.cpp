@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <functional>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -30,6 +31,7 @@ constexpr char kSucceeded[] = "SUCCEEDED";
 constexpr char kFailed[] = "FAILED";
 constexpr char kFailedRollback[] = "FAILED_ROLLBACK";
 constexpr char kPending[] = "PENDING";
+constexpr char kApplying[] = "APPLYING";
 constexpr char kApplied[] = "APPLIED";
 constexpr char kRolledBack[] = "ROLLED_BACK";
 constexpr char kRollbackFailed[] = "ROLLBACK_FAILED";
@@ -74,14 +76,21 @@ struct ParameterApplier::Impl {
   }
 
   // Step 1 for the whole request: every drive of the family, every value in the catalogue and
-  // within its limits; nothing is written when any check fails.
-  absl::StatusOr<std::vector<Resolved>> Validate(const ApplyRequest& request) const {
+  // within its limits; nothing is written when any check fails. One resolved list per drive
+  // (the same list for each, unless the request carries per-drive values: a restore).
+  absl::StatusOr<std::vector<std::vector<Resolved>>> Validate(const ApplyRequest& request) const {
     const storage::ParameterSet& set = request.set;
     absl::StatusOr<const ParameterCatalogue*> catalogue = Find(set.family);
     if (!catalogue.ok()) return catalogue.status();
     if (request.drives.empty()) {
       return absl::InvalidArgumentError(
           absl::StrCat("drives: apply of set '", set.name, "' names no drive"));
+    }
+    if (!request.per_drive_values.empty() &&
+        request.per_drive_values.size() != request.drives.size()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("per_drive_values: ", request.per_drive_values.size(), " lists for ",
+                       request.drives.size(), " drives"));
     }
     std::set<std::string> names;
     for (const Drive* d : request.drives) {
@@ -96,17 +105,37 @@ struct ParameterApplier::Impl {
             absl::StrCat("drives: drive '", DriveName(*d), "' listed twice"));
       }
     }
-    // The catalogue is the family's, so the drive named in a refusal is the first of the
-    // request: every drive would refuse the same value.
-    const std::string first = DriveName(*request.drives.front());
+    std::vector<std::vector<Resolved>> out;
+    if (request.per_drive_values.empty()) {
+      // The catalogue is the family's, so the drive named in a refusal is the first of the
+      // request: every drive would refuse the same value.
+      absl::StatusOr<std::vector<Resolved>> values =
+          Resolve(set, **catalogue, set.values, DriveName(*request.drives.front()));
+      if (!values.ok()) return values.status();
+      out.assign(request.drives.size(), *values);
+      return out;
+    }
+    for (size_t i = 0; i < request.drives.size(); ++i) {
+      absl::StatusOr<std::vector<Resolved>> values =
+          Resolve(set, **catalogue, request.per_drive_values[i], DriveName(*request.drives[i]));
+      if (!values.ok()) return values.status();
+      out.push_back(*std::move(values));
+    }
+    return out;
+  }
+
+  static absl::StatusOr<std::vector<Resolved>> Resolve(const storage::ParameterSet& set,
+                                                       const ParameterCatalogue& catalogue,
+                                                       const std::vector<ParameterValue>& values,
+                                                       const std::string& drive) {
     std::vector<Resolved> out;
-    out.reserve(set.values.size());
-    for (const ParameterValue& v : set.values) {
+    out.reserve(values.size());
+    for (const ParameterValue& v : values) {
       const std::string key = v.parameter.empty() ? std::to_string(v.id) : v.parameter;
-      absl::StatusOr<ParameterDefinition> def = (*catalogue)->Find(key);
+      absl::StatusOr<ParameterDefinition> def = catalogue.Find(key);
       if (!def.ok()) {
         return absl::InvalidArgumentError(
-            absl::StrCat("set '", set.name, "', drive '", first, "': ", Message(def.status())));
+            absl::StrCat("set '", set.name, "', drive '", drive, "': ", Message(def.status())));
       }
       if (v.id != 0 && v.id != def->id) {
         return absl::InvalidArgumentError(
@@ -115,12 +144,12 @@ struct ParameterApplier::Impl {
       }
       if (set.target_stored && !def->has_stored_value) {
         return absl::InvalidArgumentError(
-            absl::StrCat("set '", set.name, "', drive '", first, "': ", def->name,
+            absl::StrCat("set '", set.name, "', drive '", drive, "': ", def->name,
                          " has no stored (ROM) value; target_stored needs one"));
       }
-      if (absl::Status s = (*catalogue)->Validate(*def, v.value); !s.ok()) {
+      if (absl::Status s = catalogue.Validate(*def, v.value); !s.ok()) {
         return absl::InvalidArgumentError(
-            absl::StrCat("set '", set.name, "', drive '", first, "': ", Message(s)));
+            absl::StrCat("set '", set.name, "', drive '", drive, "': ", Message(s)));
       }
       out.push_back({ParameterValue{def->name, def->id, v.value}, *def});
     }
@@ -134,6 +163,8 @@ struct ParameterApplier::Impl {
     op.dry_run = request.dry_run;
     op.state = kRunning;
     op.principal = request.principal;
+    op.target_stored = request.set.target_stored;
+    op.restores = request.restores;
     for (const Drive* d : request.drives) {
       ApplyDriveResult r;
       r.drive = DriveName(*d);
@@ -143,16 +174,19 @@ struct ParameterApplier::Impl {
     return op;
   }
 
-  void Store(const ApplyOperation& op) {
+  // A failed progress store must not stop the restore logic of a running apply (the final state
+  // is retried with the next update); only the store before the first write is checked.
+  absl::Status Store(const ApplyOperation& op) {
     std::lock_guard lock(mu);
-    // A store failure must not stop the restore logic of a running apply; the final state is
-    // retried with the next update.
-    (void)repo.UpdateOperation(op);
+    return repo.UpdateOperation(op);
   }
 
   // Steps 2-5 on one drive. Returns false when the drive failed (rolled back or not).
+  // `before_first_write` stores the operation with this drive APPLYING and its pre-image: from
+  // then on a crash leaves a record of what to restore (decision 1441).
   static bool ApplyToDrive(Drive& drive, const std::vector<Resolved>& values, bool rom,
-                           bool dry_run, ApplyDriveResult& result) {
+                           bool dry_run, ApplyDriveResult& result,
+                           const std::function<absl::Status()>& before_first_write) {
     // (2) Pre-image: every parameter once, before anything is written.
     std::vector<std::pair<uint32_t, int64_t>> before;  // id -> value, set order
     auto pre = [&](uint32_t id) -> const int64_t* {
@@ -184,7 +218,14 @@ struct ParameterApplier::Impl {
       return true;
     }
 
-    // (4) Write what differs, read back, compare.
+    // (4) Write what differs, read back, compare. The pre-image is durable first.
+    // Without a stored pre-image nothing is written: a crash would leave no way back.
+    result.state = kApplying;
+    if (absl::Status s = before_first_write(); !s.ok()) {
+      result.state = kRolledBack;
+      result.error = absl::StrCat("storing the pre-image: ", Message(s));
+      return false;
+    }
     std::vector<const Resolved*> touched;  // changed on the drive, in write order
     std::string failure;
     const Resolved* failed = nullptr;
@@ -235,34 +276,36 @@ struct ParameterApplier::Impl {
     return false;
   }
 
-  ApplyOperation Execute(const ApplyRequest& request, const std::vector<Resolved>& values,
-                         ApplyOperation op) {
+  ApplyOperation Execute(const ApplyRequest& request,
+                         const std::vector<std::vector<Resolved>>& values, ApplyOperation op) {
     const bool rom = request.set.target_stored;
     op.state = kSucceeded;
+    auto store_running = [&] {
+      ApplyOperation progress = op;
+      progress.state = kRunning;
+      return Store(progress);
+    };
     for (size_t i = 0; i < request.drives.size(); ++i) {
       ApplyDriveResult& result = op.drives[i];
-      const bool ok = ApplyToDrive(*request.drives[i], values, rom, request.dry_run, result);
+      const bool ok =
+          ApplyToDrive(*request.drives[i], values[i], rom, request.dry_run, result, store_running);
       if (!ok) {
         // Stop at the first failing drive: the next drives keep their values (PENDING).
         op.state = result.state == kRollbackFailed ? kFailedRollback : kFailed;
         break;
       }
-      if (i + 1 < request.drives.size()) {
-        ApplyOperation progress = op;
-        progress.state = kRunning;
-        Store(progress);
-      }
+      if (i + 1 < request.drives.size()) (void)store_running();
     }
-    Store(op);
+    (void)Store(op);
     if (absl::StatusOr<ApplyOperation> stored = repo.GetOperation(op.id); stored.ok()) {
       return *stored;
     }
     return op;
   }
 
-  absl::StatusOr<std::pair<std::vector<Resolved>, ApplyOperation>> Prepare(
+  absl::StatusOr<std::pair<std::vector<std::vector<Resolved>>, ApplyOperation>> Prepare(
       const ApplyRequest& request) {
-    absl::StatusOr<std::vector<Resolved>> values = Validate(request);
+    absl::StatusOr<std::vector<std::vector<Resolved>>> values = Validate(request);
     if (!values.ok()) return values.status();
     absl::StatusOr<ApplyOperation> op;
     {

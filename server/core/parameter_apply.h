@@ -1,6 +1,8 @@
 // Applying a parameter set to drives safely (issue 6): validate every value against the family's
 // catalogue first, read the pre-image, write, read back and compare every value, and on any failure
-// restore the pre-image on that drive; the operation (with its pre-images) is stored as it runs.
+// restore the pre-image on that drive; the operation (with its pre-images) is stored as it runs:
+// a drive's pre-image is stored (drive APPLYING) before its first write, so a process that dies
+// mid-apply leaves a RUNNING row that start-up reports INTERRUPTED (decision 1441).
 #pragma once
 
 #include <functional>
@@ -17,10 +19,14 @@
 namespace drivegw::server {
 
 struct ApplyRequest {
-  storage::ParameterSet set;  // the version to apply (values resolved: id filled in)
+  storage::ParameterSet set;   // the version to apply (values resolved: id filled in)
   std::vector<Drive*> drives;  // each must be of set.family
   bool dry_run = false;        // read and compare only: report what would change, write nothing
   std::string principal;
+  // Restore of a pre-image (decision 1441): when not empty, one value list per drive (same
+  // order as `drives`) replaces set.values, and `restores` names the operation ("op-7").
+  std::vector<std::vector<storage::ParameterValue>> per_drive_values;
+  std::string restores;
 };
 
 // What one drive would get (dry run) or got: per parameter current vs set value.
@@ -44,8 +50,7 @@ class ParameterApplier {
   // sequence) updating the stored operation as each drive finishes. `on_done` (optional) is called
   // with the final operation.
   absl::StatusOr<storage::ApplyOperation> Start(
-      ApplyRequest request,
-      std::function<void(const storage::ApplyOperation&)> on_done = nullptr);
+      ApplyRequest request, std::function<void(const storage::ApplyOperation&)> on_done = nullptr);
   // Runs the same steps on the caller's thread and returns the final operation (tests, bench).
   absl::StatusOr<storage::ApplyOperation> Run(ApplyRequest request);
 

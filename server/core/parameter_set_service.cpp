@@ -84,7 +84,27 @@ v1::Operation ToProto(const storage::ApplyOperation& op) {
   p.set_principal(op.principal);
   *p.mutable_create_time() = ToProto(op.created_at);
   *p.mutable_update_time() = ToProto(op.updated_at);
+  p.set_target_stored(op.target_stored);
+  if (!op.restores.empty())
+    p.set_restores(absl::StrCat(std::string(kOperationPrefix), op.restores));
   return p;
+}
+
+// Drive states whose pre-image may differ from what the drive holds now (decision 1441).
+bool HasValuesToRestore(const storage::ApplyDriveResult& d) {
+  return !d.pre_image.empty() && (d.state == "APPLYING" || d.state == "INTERRUPTED" ||
+                                  d.state == "APPLIED" || d.state == "ROLLBACK_FAILED");
+}
+
+// "operations/op-7" or "op-7" -> "op-7"; InvalidArgument naming `field` otherwise.
+absl::StatusOr<std::string> OperationId(const std::string& field, const std::string& name) {
+  absl::string_view id = name;
+  if (absl::StartsWith(id, kOperationPrefix)) id.remove_prefix(kOperationPrefix.size());
+  if (id.empty() || absl::StrContains(id, '/')) {
+    return FieldError(field,
+                      absl::StrCat("'", name, "' is not an operation name (\"operations/{op}\")"));
+  }
+  return std::string(id);
 }
 
 std::vector<storage::ParameterValue> FromProto(
@@ -573,15 +593,114 @@ absl::StatusOr<v1::Operation> ParameterSetServiceCore::ApplyParameterSet(
 
 absl::StatusOr<v1::Operation> ParameterSetServiceCore::GetOperation(
     const v1::GetOperationRequest& r, const CallContext&) {
-  absl::string_view id = r.name();
-  if (absl::StartsWith(id, kOperationPrefix)) id.remove_prefix(kOperationPrefix.size());
-  if (id.empty() || absl::StrContains(id, '/')) {
-    return FieldError(
-        "name", absl::StrCat("'", r.name(), "' is not an operation name (\"operations/{op}\")"));
-  }
-  auto op = repo_.GetOperation(std::string(id));
+  auto id = OperationId("name", r.name());
+  if (!id.ok()) return id.status();
+  auto op = repo_.GetOperation(*id);
   if (!op.ok()) return op.status();
   return ToProto(*op);
+}
+
+absl::StatusOr<v1::Operation> ParameterSetServiceCore::RestoreOperation(
+    const v1::RestoreOperationRequest& r, const CallContext& c) {
+  auto fail = [&](absl::Status s) {
+    Audit(c, "", "RestoreOperation", ToAuditJson(r), s);
+    return s;
+  };
+  auto id = OperationId("name", r.name());
+  if (!id.ok()) return fail(id.status());
+  auto op = repo_.GetOperation(*id);
+  if (!op.ok()) return fail(op.status());
+  if (op->state == "RUNNING") {
+    return fail(absl::FailedPreconditionError(
+        absl::StrCat("name: operation ", *id, " is still RUNNING; restore it once it ended")));
+  }
+  if (op->dry_run) {
+    return fail(absl::FailedPreconditionError(
+        absl::StrCat("name: operation ", *id, " was a dry run and wrote nothing")));
+  }
+  // Which drives: the ones asked for (each must have values to restore), else every drive
+  // that has some.
+  std::vector<const storage::ApplyDriveResult*> chosen;
+  for (int i = 0; i < r.drives_size(); ++i) {
+    const std::string field = absl::StrCat("drives[", i, "]");
+    absl::string_view want = r.drives(i);
+    if (absl::StartsWith(want, "drives/")) want.remove_prefix(7);
+    const storage::ApplyDriveResult* found = nullptr;
+    for (const auto& d : op->drives) {
+      if (d.drive == want) found = &d;
+    }
+    if (found == nullptr) {
+      return fail(FieldError(field, absl::StrCat("'", r.drives(i), "' is not a drive of ", *id)));
+    }
+    if (!HasValuesToRestore(*found)) {
+      return fail(FieldError(field, absl::StrCat("drive '", found->drive, "' is ", found->state,
+                                                 " in ", *id, ": nothing to restore")));
+    }
+    chosen.push_back(found);
+  }
+  if (r.drives().empty()) {
+    for (const auto& d : op->drives) {
+      if (HasValuesToRestore(d)) chosen.push_back(&d);
+    }
+  }
+  if (chosen.empty()) {
+    return fail(absl::FailedPreconditionError(absl::StrCat(
+        "name: operation ", *id, " (", op->state, ") left no drive with values to restore")));
+  }
+  ApplyRequest req;
+  std::string drive_names;
+  for (size_t i = 0; i < chosen.size(); ++i) {
+    auto d = FindDrive(absl::StrCat("drives[", i, "]"), chosen[i]->drive);
+    if (!d.ok()) return fail(d.status());
+    if (auto s = CheckLease(leases_, (*d)->config().name, c); !s.ok()) return fail(s);
+    req.drives.push_back(*d);
+    req.per_drive_values.push_back(chosen[i]->pre_image);
+    absl::StrAppend(&drive_names, drive_names.empty() ? "" : ",", (*d)->config().name);
+  }
+  // The family is the drives' (the set may be gone; a drive's family cannot change while the
+  // gateway runs, and the applier refuses a mismatch between them).
+  req.set.name = op->set_name;
+  req.set.version = op->set_version;
+  req.set.family = req.drives.front()->config().family;
+  req.set.target_stored = op->target_stored;
+  req.principal = c.principal;
+  req.restores = *id;
+  storage::AuditLog* audit = audit_;
+  auto started =
+      applier_.Start(std::move(req), [audit, c, drive_names](const storage::ApplyOperation& done) {
+        const v1::Operation p = ToProto(done);
+        absl::Status result = done.state == "SUCCEEDED"
+                                  ? absl::OkStatus()
+                                  : absl::AbortedError(absl::StrCat(p.name(), " ", done.state));
+        WriteAudit(audit, c, drive_names, "RestoreOperation.done", ToAuditJson(p), result);
+      });
+  if (!started.ok()) return fail(started.status());
+  v1::Operation out = ToProto(*started);
+  Audit(c, drive_names, "RestoreOperation",
+        absl::StrCat("{\"request\":", ToAuditJson(r), ",\"operation\":\"", out.name(), "\"}"),
+        absl::OkStatus());
+  return out;
+}
+
+absl::StatusOr<int> ParameterSetServiceCore::MarkInterrupted() {
+  auto ops = repo_.InterruptRunning(
+      "the gateway stopped during the apply; some values may be written: restore the pre-image");
+  if (!ops.ok()) return ops.status();
+  // One entry per operation, as the system (no caller): what was interrupted, with the
+  // pre-images, so the audit trail alone says what to restore.
+  CallContext system;
+  system.principal = "drivegw";  // as the shutdown stop's entries (server/ops/shutdown.cpp)
+  system.transport = "startup";
+  for (const auto& op : *ops) {
+    std::string drive_names;
+    for (const auto& d : op.drives) {
+      absl::StrAppend(&drive_names, drive_names.empty() ? "" : ",", d.drive);
+    }
+    const v1::Operation p = ToProto(op);
+    WriteAudit(audit_, system, drive_names, "ApplyParameterSet.interrupted", ToAuditJson(p),
+               absl::AbortedError(absl::StrCat(p.name(), " INTERRUPTED")));
+  }
+  return static_cast<int>(ops->size());
 }
 
 absl::StatusOr<v1::ListOperationsResponse> ParameterSetServiceCore::ListOperations(

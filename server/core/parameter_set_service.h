@@ -59,6 +59,13 @@ class ParameterSetServiceCore {
                                                   const CallContext& c);
   absl::StatusOr<v1::Operation> GetOperation(const v1::GetOperationRequest& r,
                                              const CallContext& c);
+  // Applies the pre-images of a finished operation (decision 1441); needs the drives' leases
+  // like an apply.
+  absl::StatusOr<v1::Operation> RestoreOperation(const v1::RestoreOperationRequest& r,
+                                                 const CallContext& c);
+  // Start-up: RUNNING operations of a previous process become INTERRUPTED, one audit entry each.
+  // Call before the API serves. Returns how many there were.
+  absl::StatusOr<int> MarkInterrupted();
   absl::StatusOr<v1::ListOperationsResponse> ListOperations(const v1::ListOperationsRequest& r,
                                                             const CallContext& c);
   absl::StatusOr<v1::ParameterSet> ImportParameterSet(const v1::ImportParameterSetRequest& r,

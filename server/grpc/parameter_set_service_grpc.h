@@ -26,6 +26,7 @@ namespace drivegw::server {
   X(ApplyParameterSet, ApplyParameterSetRequest, Operation)                                      \
   X(GetOperation, GetOperationRequest, Operation)                                                \
   X(ListOperations, ListOperationsRequest, ListOperationsResponse)                               \
+  X(RestoreOperation, RestoreOperationRequest, Operation)                                        \
   X(ImportParameterSet, ImportParameterSetRequest, ParameterSet)                                 \
   X(ExportParameterSet, ExportParameterSetRequest, ExportParameterSetResponse)
 

@@ -2,6 +2,7 @@
 // the packet timeout before `$41` is sent and the fault injection (trinamic-sixpack.md §7).
 #pragma once
 
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,6 +33,10 @@ struct ServerOptions {
   // unit's `$40` baud rate (L273, L832, §2.7; decision 1045).
   bool check_peer_baud = false;
   Faults faults;
+  // Host words (words()) and wire events (wire()) kept for tests and tools, oldest dropped first.
+  // Each is a small heap vector: at the poll rate of a live gateway (≈ 200 words/s) the default
+  // fills ≈ 15 MB in ≈ 8 min; the gateway's embedded demo keeps none (decision 1442).
+  size_t trace_limit = 100000;
 };
 
 // InvalidArgument naming the field (axes, address, amax divisor, packet timeout, more_units).

@@ -178,8 +178,10 @@ void TrinamicServer::FlushLocked(TimePoint now) {
 
 void TrinamicServer::SendLocked(const std::vector<uint8_t>& bytes) {
   if (pty_.Write(bytes).ok()) ++counters_.replies;
-  wire_.push_back(WireEvent{false, bytes});
-  if (wire_.size() > 100000) wire_.pop_front();
+  if (options_.trace_limit > 0) {
+    wire_.push_back(WireEvent{false, bytes});
+    if (wire_.size() > options_.trace_limit) wire_.pop_front();
+  }
 }
 
 std::vector<TrinamicServer::WireEvent> TrinamicServer::wire() const {
@@ -202,11 +204,13 @@ void TrinamicServer::HandleLocked(Unit& unit, const drivegw::trinamic::Command& 
                                   TimePoint now) {
   // Every unit on a multi-drop line decodes the same host word; trace it once (decision 1039).
   const bool first_unit = &unit == &units_.front();
-  if (auto bytes = drivegw::trinamic::EncodeCommand(command); first_unit && bytes.ok()) {
-    wire_.push_back(WireEvent{true, *bytes});
-    if (wire_.size() > 100000) wire_.pop_front();
-    trace_.push_back(*std::move(bytes));
-    if (trace_.size() > 100000) trace_.pop_front();  // bounded for long-running tools
+  if (options_.trace_limit > 0 && first_unit) {
+    if (auto bytes = drivegw::trinamic::EncodeCommand(command); bytes.ok()) {
+      wire_.push_back(WireEvent{true, *bytes});
+      if (wire_.size() > options_.trace_limit) wire_.pop_front();
+      trace_.push_back(*std::move(bytes));
+      if (trace_.size() > options_.trace_limit) trace_.pop_front();  // bounded for long runs
+    }
   }
   auto reply = unit.controller.Handle(command);
   if (unit.controller.reset_count() != unit.resets_seen) {

@@ -370,6 +370,61 @@ TEST_F(ParameterSetRepoTest, Operations_ListNewestFirst_NeverDeleted) {
   EXPECT_EQ(Count("apply_operations"), 3);
 }
 
+// Decision 1441: start-up turns RUNNING operations INTERRUPTED; the drive that was being
+// written (APPLYING) becomes INTERRUPTED with the reason, PENDING ones and finished operations
+// stay as they are; the pre-image survives; target_stored and restores round-trip.
+TEST_F(ParameterSetRepoTest, InterruptRunning_OnlyRunningOnesWithTheirApplyingDrives) {
+  ApplyOperation running;
+  running.set_name = "a";
+  running.set_version = 2;
+  running.target_stored = true;
+  running.drives = {Drive("x1", "APPLIED"), Drive("x2", "APPLYING"), Drive("x3", "PENDING")};
+  auto r = repo_->CreateOperation(running);
+  ASSERT_TRUE(r.ok()) << r.status();
+  ApplyOperation done;
+  done.set_name = "a";
+  done.set_version = 2;
+  done.restores = "op-1";
+  auto d = repo_->CreateOperation(done);
+  ASSERT_TRUE(d.ok()) << d.status();
+  done = *d;
+  done.state = "SUCCEEDED";
+  ASSERT_TRUE(repo_->UpdateOperation(done).ok());
+
+  auto interrupted = repo_->InterruptRunning("the gateway stopped");
+  ASSERT_TRUE(interrupted.ok()) << interrupted.status();
+  ASSERT_EQ(interrupted->size(), 1u);
+  EXPECT_EQ((*interrupted)[0].id, r->id);
+
+  auto got = repo_->GetOperation(r->id);
+  ASSERT_TRUE(got.ok()) << got.status();
+  EXPECT_EQ(got->state, "INTERRUPTED");
+  EXPECT_TRUE(got->target_stored);
+  ASSERT_EQ(got->drives.size(), 3u);
+  EXPECT_EQ(got->drives[0].state, "APPLIED");
+  EXPECT_EQ(got->drives[1].state, "INTERRUPTED");
+  EXPECT_EQ(got->drives[1].error, "the gateway stopped");
+  EXPECT_EQ(got->drives[1].pre_image, running.drives[1].pre_image);
+  EXPECT_EQ(got->drives[2].state, "PENDING");
+  auto other = repo_->GetOperation(done.id);
+  ASSERT_TRUE(other.ok());
+  EXPECT_EQ(other->state, "SUCCEEDED");
+  EXPECT_EQ(other->restores, "op-1");
+  EXPECT_FALSE(other->target_stored);
+
+  // A second start finds nothing left to interrupt; the fixed columns stay fixed.
+  auto again = repo_->InterruptRunning("again");
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(again->empty());
+  EXPECT_EQ(db_->Exec("UPDATE apply_operations SET restores = 'op-9' WHERE id = 1").code(),
+            absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(db_->Exec("UPDATE apply_operations SET target_stored = 0 WHERE id = 1").code(),
+            absl::StatusCode::kFailedPrecondition);
+  ApplyOperation bad = running;
+  bad.restores = "7";
+  EXPECT_EQ(repo_->CreateOperation(bad).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
 TEST_F(ParameterSetRepoTest, Operations_BadInput_Refused) {
   ApplyOperation op;
   op.set_name = "a";

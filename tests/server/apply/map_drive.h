@@ -91,7 +91,11 @@ class MapDrive final : public Drive {
     }
     return it->second;
   }
+  // Called before every write, outside the drive's lock (decision 1441: what is stored by then).
+  std::function<void()> before_write;
+
   absl::Status WriteParameter(const ParameterRef& ref, int64_t value) override {
+    if (before_write) before_write();
     std::lock_guard lock(mu_);
     const int k = calls_++;
     if (failed_ && faults_.refuse_after_failure) {

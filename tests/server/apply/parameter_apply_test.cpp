@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "storage/db.h"
 #include "storage/migrations.h"
 #include "storage/parameter_set_repo.h"
@@ -141,6 +142,60 @@ TEST_F(ParameterApplyTest, SuccessWritesOnlyDifferingValuesAndStoresTheOperation
   ASSERT_EQ(stored->drives.size(), 2u);
   EXPECT_EQ(stored->drives[1].state, "APPLIED");
   EXPECT_EQ(stored->drives[1].pre_image, pre);
+}
+
+// Decision 1441: before the first write to a drive its pre-image is in the database with the
+// drive APPLYING and the operation RUNNING, so a process killed at any write leaves a record of
+// what to restore.
+TEST_F(ParameterApplyTest, PreImageIsStoredBeforeTheFirstWrite) {
+  MapDrive& a = AddDrive("x1");
+  MapDrive& b = AddDrive("x2");
+  std::vector<std::string>
+      seen;  // "<drive state 0>/<drive state 1>/<pre-image size of the writer>"
+  auto look = [&](size_t writer) {
+    return [&, writer] {
+      auto ops = repo_->ListOperations(1);
+      ASSERT_TRUE(ops.ok() && ops->size() == 1u);
+      const ApplyOperation& op = ops->front();
+      EXPECT_EQ(op.state, "RUNNING");
+      seen.push_back(absl::StrCat(op.drives[0].state, "/", op.drives[1].state, "/",
+                                  op.drives[writer].pre_image.size()));
+    };
+  };
+  a.before_write = look(0);
+  b.before_write = look(1);
+  auto op = applier_->Run(Request(Standard()));
+  ASSERT_TRUE(op.ok()) << op.status();
+  EXPECT_EQ(op->state, "SUCCEEDED");
+  const std::vector<std::string> want = {"APPLYING/PENDING/4", "APPLYING/PENDING/4",
+                                         "APPLYING/PENDING/4", "APPLIED/APPLYING/4",
+                                         "APPLIED/APPLYING/4", "APPLIED/APPLYING/4"};
+  EXPECT_EQ(seen, want);
+}
+
+// A restore (decision 1441): each drive gets its own value list, the operation names the one it
+// restores and keeps the RAM/ROM choice.
+TEST_F(ParameterApplyTest, PerDriveValuesWriteEachDrivesOwnListAndNameTheRestoredOperation) {
+  MapDrive& a = AddDrive("x1");
+  MapDrive& b = AddDrive("x2");
+  ApplyRequest r = Request(Set({}));
+  r.per_drive_values = {{{"p1", 1, 11}}, {{"p3", 3, 33}, {"p4", 4, 44}}};
+  r.restores = "op-7";
+  auto op = applier_->Run(r);
+  ASSERT_TRUE(op.ok()) << op.status();
+  EXPECT_EQ(op->state, "SUCCEEDED");
+  EXPECT_EQ(op->restores, "op-7");
+  EXPECT_EQ(a.Value(1), 11);
+  EXPECT_EQ(a.Value(3), 3);
+  EXPECT_EQ(b.Value(1), 1);
+  EXPECT_EQ(b.Value(3), 33);
+  EXPECT_EQ(b.Value(4), 44);
+  // Every list is validated before anything is written; a count mismatch is refused.
+  r.per_drive_values = {{{"p1", 1, 12}}, {{"p9", 9, 1}}};
+  EXPECT_EQ(applier_->Run(r).status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(a.Value(1), 11);
+  r.per_drive_values = {{{"p1", 1, 12}}};
+  EXPECT_EQ(applier_->Run(r).status().code(), absl::StatusCode::kInvalidArgument);
 }
 
 TEST_F(ParameterApplyTest, NothingToChangeIsUnchanged) {
