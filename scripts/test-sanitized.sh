@@ -9,7 +9,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$(date +%s)
 # BUILD_DIR/CMAKE_ARGS of the caller describe build/ (scripts/test.sh): not this tree.
-BUILD_DIR=build-asan CMAKE_ARGS= PRESET=asan scripts/build.sh
+BUILD_DIR=build-asan CMAKE_ARGS='' PRESET=asan scripts/build.sh
 built=$(date +%s)
 echo "test-sanitized: build-asan built in $((built - start)) s"
 # install-deps installed Chromium: the dashboard test drives the sanitized gateway, it must not skip.
