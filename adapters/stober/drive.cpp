@@ -370,14 +370,20 @@ void StoberDrive::OnTpdo(const co::TpdoEvent& event) noexcept {
   std::lock_guard lock(mu_);
   if (event.number == 1) {
     auto s = DecodeStatusTpdo(event.payload());
-    if (!s.ok()) return;
+    if (!s.ok()) {
+      ++counters_.malformed_tpdos;
+      return;
+    }
     status_ = *s;
     ++status_seq_;
     ++counters_.status_tpdos;
     EvaluateTrackerLocked(clock_.Now());
   } else if (event.number == 2) {
     auto a = DecodeActualTpdo(event.payload());
-    if (!a.ok()) return;
+    if (!a.ok()) {
+      ++counters_.malformed_tpdos;
+      return;
+    }
     actual_ = *a;
     ++counters_.actual_tpdos;
   } else {

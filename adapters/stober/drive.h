@@ -30,6 +30,9 @@ struct StoberDriveCounters {
   uint64_t configure_failures = 0;
   uint64_t status_tpdos = 0;
   uint64_t actual_tpdos = 0;
+  // TPDO1/TPDO2 shorter than their mapping (CiA 301 §7.2.2.3: the consumer drops them): counted
+  // so a mis-mapped node shows up in /metrics instead of freezing the status silently.
+  uint64_t malformed_tpdos = 0;
   uint64_t rpdos = 0;
   uint64_t bootups = 0;  // boot-up messages after the first configuration (reboots)
   uint64_t heartbeat_losses = 0;
