@@ -252,8 +252,9 @@ def linmot_curve_seeds():
              ("curve_service_test", bytes([3]) + upload_script(pts5)),
              ("curve_service_test", bytes([3]) + rtc_reply(0xD4)),
              ("curve_service_test", bytes([3]) + rtc_reply(0x00, 1, 70, 8) + rtc_reply(0xC2))]
-    # Upload then a download answered block by block (0x50 accepted, blocks 0x04, last 0x00).
-    download = rtc_reply(0x00) + rtc_reply(0x04) * 17 + rtc_reply(0x04) + rtc_reply(0x00)
+    # Upload, then a download answered block by block (0x50 accepted, 18 info blocks and the first
+    # point 0x04, the last point 0x00) and its read-back.
+    download = rtc_reply(0x00) + rtc_reply(0x04) * 18 + rtc_reply(0x04) + rtc_reply(0x00)
     seeds.append(("curve_service_test", bytes([3]) + upload_script(pts2) + download +
                   upload_script(pts2, info_block(2, 2, 50000))))
     return seeds
