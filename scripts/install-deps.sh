@@ -9,6 +9,9 @@ BUILD_PKGS=(build-essential cmake ninja-build pkg-config ccache
   libboost-dev libboost-system-dev libsqlite3-dev libyaml-cpp-dev nlohmann-json3-dev
   libssl-dev golang-grpc-gateway)
 TEST_PKGS=(clang sqlite3 libgtest-dev libgmock-dev libbenchmark-dev
+  # scripts/fuzz.sh: libFuzzer builds (-DDGW_FUZZ=ON, a separate clang tree); gcc builds never
+  # need these.
+  clang-14 libfuzzer-14-dev
   python3-grpcio curl openssl
   python3-can python3-msgpack
   qemu-system-x86 busybox-static cpio kmod xz-utils

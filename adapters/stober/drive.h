@@ -30,14 +30,15 @@ struct StoberDriveCounters {
   uint64_t configure_failures = 0;
   uint64_t status_tpdos = 0;
   uint64_t actual_tpdos = 0;
+  // TPDO1/TPDO2 shorter than their mapping (CiA 301 §7.2.2.3: the consumer drops them): counted
+  // so a mis-mapped node shows up in /metrics instead of freezing the status silently; never
+  // taken as a status (decisions 1405, 1421).
+  uint64_t malformed_tpdos = 0;
   uint64_t rpdos = 0;
   uint64_t bootups = 0;  // boot-up messages after the first configuration (reboots)
   uint64_t heartbeat_losses = 0;
   uint64_t emcy = 0;
   uint64_t execute_retries = 0;  // Execute edges repeated because the node did not take one (1207)
-  // TPDOs of the wrong length for their mapping (CiA 301 §7.2.2: not processed), refused and
-  // counted, never taken as a status (issue 11 fault injection, decision 1421).
-  uint64_t malformed_tpdos = 0;
 };
 
 // The RPDO images the drive keeps (every RPDO carries all its fields, so the unchanged ones are

@@ -116,7 +116,6 @@ constexpr std::array kRows = {
         "Packet abort timeout, at least one 9-byte word at the line rate (L835-838, G-04)"},
 };
 
-constexpr uint32_t kPeak = ParameterId(O::kPeakCurrent, 1);
 constexpr uint32_t kI1 = ParameterId(O::kCurrentControl, 2);
 constexpr uint32_t kI3 = ParameterId(O::kCurrentControl, 4);
 constexpr uint32_t kClkdiv = ParameterId(O::kVelocitySetting, 0);

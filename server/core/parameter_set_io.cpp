@@ -2,6 +2,7 @@
 // operator has to fix, decision 011) and the CSV reader/writers.
 #include "server/core/parameter_set_io.h"
 
+#include <algorithm>
 #include <cctype>
 #include <map>
 #include <memory>
@@ -215,10 +216,19 @@ absl::StatusOr<int64_t> ParseInteger(absl::string_view text, int line, std::stri
   std::string t(absl::StripAsciiWhitespace(text));
   int64_t v = 0;
   bool ok = false;
+  // Only hex digits after the prefix: SimpleHexAtoi also takes a sign and a second "0x", so
+  // "0x-5" read as -5 and "-0x-8000000000000000" negated INT64_MIN (signed overflow; decision
+  // 1404).
+  auto hex_digits = [](absl::string_view d) {
+    return !d.empty() && std::all_of(d.begin(), d.end(), [](char c) {
+      return absl::ascii_isxdigit(static_cast<unsigned char>(c));
+    });
+  };
   if (absl::StartsWithIgnoreCase(t, "0x")) {
-    ok = absl::SimpleHexAtoi(t.substr(2), &v);
+    ok = hex_digits(absl::string_view(t).substr(2)) && absl::SimpleHexAtoi(t.substr(2), &v);
   } else if (absl::StartsWithIgnoreCase(t, "-0x")) {
-    ok = absl::SimpleHexAtoi(t.substr(3), &v);
+    // At most 0x7FFFFFFFFFFFFFFF after the sign: the negation cannot overflow.
+    ok = hex_digits(absl::string_view(t).substr(3)) && absl::SimpleHexAtoi(t.substr(3), &v);
     v = -v;
   } else {
     ok = absl::SimpleAtoi(t, &v);

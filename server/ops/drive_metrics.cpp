@@ -85,6 +85,7 @@ void CollectStober(const stober::StoberDrive& d, Out& o) {
   o.Error("heartbeat_lost", c.heartbeat_losses);
   o.Error("emcy", c.emcy);
   o.Error("execute_retry", c.execute_retries);
+  o.Error("malformed", c.malformed_tpdos);
   // Cycle lateness of the bus's SYNC producer (decision 1118): skipped periods and how far the
   // last and worst intervals were off the period.
   if (const auto m = d.master_counters()) {

@@ -12,6 +12,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 
@@ -318,8 +319,55 @@ std::unique_ptr<pb::Message> NewMessage(const pb::Descriptor* type) {
 
 // --- error helpers --------------------------------------------------------------------------
 
+namespace {
+
+// The length of the well-formed UTF-8 sequence at the start of `s` (RFC 3629 §4: no overlong
+// forms, no surrogates, nothing above U+10FFFF), 0 when there is none.
+size_t Utf8SequenceLength(std::string_view s) {
+  const auto b = [&](size_t i) { return static_cast<unsigned char>(s[i]); };
+  const auto tail = [&](size_t i, unsigned lo = 0x80, unsigned hi = 0xBF) {
+    return i < s.size() && b(i) >= lo && b(i) <= hi;
+  };
+  const unsigned c = b(0);
+  if (c < 0x80) return 1;
+  if (c >= 0xC2 && c <= 0xDF) return tail(1) ? 2 : 0;
+  if (c >= 0xE0 && c <= 0xEF) {
+    const bool second = c == 0xE0 ? tail(1, 0xA0) : c == 0xED ? tail(1, 0x80, 0x9F) : tail(1);
+    return second && tail(2) ? 3 : 0;
+  }
+  if (c >= 0xF0 && c <= 0xF4) {
+    const bool second = c == 0xF0 ? tail(1, 0x90) : c == 0xF4 ? tail(1, 0x80, 0x8F) : tail(1);
+    return second && tail(2) && tail(3) ? 4 : 0;
+  }
+  return 0;
+}
+
+}  // namespace
+
+std::string ValidUtf8(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  while (!text.empty()) {
+    const size_t n = Utf8SequenceLength(text);
+    if (n == 0) {
+      absl::StrAppend(&out, "\\x", absl::Hex(static_cast<unsigned char>(text[0]), absl::kZeroPad2));
+      text.remove_prefix(1);
+    } else {
+      out.append(text.substr(0, n));
+      text.remove_prefix(n);
+    }
+  }
+  return out;
+}
+
 HttpResponse ErrorResponse(int http_status, int grpc_code, std::string message, std::string field,
                            std::string field_description) {
+  // Messages quote what the client sent (a query parameter, a field name); protobuf strings and
+  // JSON must be UTF-8, so a byte that is not is shown as \xNN (found by rest_body_fuzz:
+  // MessageToJsonString failed and the fallback's C escapes were not JSON, decision 1403).
+  message = ValidUtf8(message);
+  field = ValidUtf8(field);
+  field_description = ValidUtf8(field_description);
   google::rpc::Status status;
   status.set_code(grpc_code);
   status.set_message(message);
@@ -332,8 +380,9 @@ HttpResponse ErrorResponse(int http_status, int grpc_code, std::string message, 
   }
   std::string json;
   if (!pb::util::MessageToJsonString(status, &json, PrintOptions()).ok()) {
-    json = absl::StrCat("{\"code\":", grpc_code, ",\"message\":\"", absl::CEscape(message),
-                        "\",\"details\":[]}");
+    // Not reached with UTF-8 text; kept JSON-valid anyway: the message as a JSON string.
+    json = absl::StrCat("{\"code\":", grpc_code, ",\"message\":", nlohmann::json(message).dump(),
+                        ",\"details\":[]}");
   }
   return JsonResponse(http_status, std::move(json));
 }

@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -60,6 +61,9 @@ struct HttpResponse {
 // `grpc_code` is the google.rpc.Code; `field`, when set, adds a google.rpc.BadRequest detail.
 HttpResponse ErrorResponse(int http_status, int grpc_code, std::string message,
                            std::string field = {}, std::string field_description = {});
+// `text` with every byte that does not start a well-formed UTF-8 sequence written as "\xNN":
+// error messages quote client input and must stay UTF-8 for protobuf and JSON.
+std::string ValidUtf8(std::string_view text);
 // HTTP status for a google.rpc.Code (INVALID_ARGUMENT 400, NOT_FOUND 404, ..., else 500).
 int HttpStatusForGrpcCode(int grpc_code);
 

@@ -16,8 +16,6 @@ namespace {
 
 // Upper bound of one wait of the I/O thread with nothing scheduled; Register and Stop wake it.
 constexpr Duration kIdleWait = std::chrono::milliseconds(200);
-// The fixed send grid (Session::kGridTick, header).
-constexpr Duration kGridTick = Session::kGridTick;
 // A wake-up of the I/O thread later than this after it was due is a stall of the thread (the
 // host held it off the CPU), counted apart from the exchange's own late periods (decision 1312):
 // a quarter of the 2 ms cycle of issue 10 (P2), well above the tens of µs of a normal wake-up.

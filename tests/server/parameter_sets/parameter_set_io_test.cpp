@@ -91,7 +91,14 @@ INSTANTIATE_TEST_SUITE_P(
         Bad{"parameter,value\n$14.vmax,\n", "line 2, field value: '' is not an integer"},
         Bad{"parameter,value\n$14.vmax,1.5\n", "line 2, field value: '1.5' is not an integer"},
         Bad{"parameter,value\nx,99999999999999999999\n",
-            "line 2, field value: '99999999999999999999'"}));
+            "line 2, field value: '99999999999999999999'"},
+        // Decision 1404: a sign or a second prefix after "0x" is not hex; "-0x-8000000000000000"
+        // used to negate INT64_MIN (UBSan: signed overflow).
+        Bad{"parameter,value\nx,-0x-8000000000000000\n",
+            "line 2, field value: '-0x-8000000000000000' is not an integer"},
+        Bad{"parameter,value\nx,0x-5\n", "line 2, field value: '0x-5' is not an integer"},
+        Bad{"parameter,value\nx,0x0x5\n", "line 2, field value: '0x0x5' is not an integer"},
+        Bad{"parameter,value\nx,-0x\n", "line 2, field value: '-0x' is not an integer"}));
 
 class JsonErrors : public ::testing::TestWithParam<Bad> {};
 TEST_P(JsonErrors, NameLineAndField) {

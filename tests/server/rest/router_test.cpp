@@ -239,6 +239,30 @@ TEST_F(RouterTest, Query_UnknownParameter_400NamesIt) {
   EXPECT_EQ(j["details"][0]["field_violations"][0]["field"], "bogus");
 }
 
+// Found by rest_body_fuzz (decision 1403): a parameter name that is not UTF-8 made the error
+// body invalid JSON (MessageToJsonString refused it, the fallback wrote C escapes). The bytes
+// are now quoted as \xNN and the answer stays a parseable google.rpc.Status.
+TEST_F(RouterTest, Query_NonUtf8ParameterName_400ValidJsonNamingTheBytes) {
+  const auto r = Call("GET", "/v1/drives?b%FFgus%C0%AF=1");
+  EXPECT_EQ(r.status, 400);
+  ASSERT_TRUE(json::accept(r.body)) << r.body;
+  const auto j = Json(r);
+  EXPECT_THAT(j["message"].get<std::string>(), HasSubstr("b\\xffgus\\xc0\\xaf"));
+  EXPECT_EQ(j["details"][0]["field_violations"][0]["field"], "b\\xffgus\\xc0\\xaf");
+}
+
+TEST(ValidUtf8, KeepsUtf8QuotesEveryOtherByte) {
+  EXPECT_EQ(ValidUtf8("drive \xE2\x82\xAC x1"), "drive \xE2\x82\xAC x1");  // U+20AC kept
+  EXPECT_EQ(ValidUtf8("\xF0\x9F\x98\x80"), "\xF0\x9F\x98\x80");            // U+1F600 kept
+  EXPECT_EQ(ValidUtf8("a\xFF"
+                      "b"),
+            "a\\xffb");
+  EXPECT_EQ(ValidUtf8("\xC0\xAF"), "\\xc0\\xaf");                    // overlong '/'
+  EXPECT_EQ(ValidUtf8("\xED\xA0\x80"), "\\xed\\xa0\\x80");           // surrogate D800
+  EXPECT_EQ(ValidUtf8("\xE2\x82"), "\\xe2\\x82");                    // truncated sequence
+  EXPECT_EQ(ValidUtf8("\xF4\x90\x80\x80"), "\\xf4\\x90\\x80\\x80");  // above U+10FFFF
+}
+
 TEST_F(RouterTest, Query_FieldBoundByPath_400) {
   const auto r = Call("GET", "/v1/drives/x1?name=drives/x2");
   EXPECT_EQ(r.status, 400);

@@ -14,6 +14,8 @@
 
 #include "adapters/stober/factory.h"
 #include "adapters/stober/object_map.h"
+#include "adapters/transport/can_channel.h"
+#include "adapters/transport/can_frame.h"
 #include "sim/stober/server.h"
 #include "tests/support/wait_status.h"
 
@@ -333,6 +335,34 @@ TEST_F(StoberDriveTest, HeartbeatLossGoesOfflineAndRecovers) {
   EXPECT_EQ(s.state, DriveState::kEnabled);
   EXPECT_GE(drive_->counters().configurations, 2u);
   EXPECT_EQ(drive_->counters().heartbeat_losses, 1u);
+}
+
+// A TPDO1/TPDO2 shorter than its mapping (another master's frame, a node mapped differently) is
+// dropped as CiA 301 §7.2.2.3 says, but counted (StoberDriveCounters::malformed_tpdos, /metrics
+// error kind "malformed"); the status and position keep the last good values and later TPDOs
+// are still taken.
+TEST_F(StoberDriveTest, ShortTpdosAreCountedAndDropped) {
+  Start();
+  const DriveStatus before = AtRest(0);
+  ASSERT_EQ(drive_->counters().malformed_tpdos, 0u);
+  auto peer = transport::OpenCanChannel(bus_);
+  ASSERT_TRUE(peer.ok()) << peer.status();
+  const uint8_t status_part[] = {0x37, 0x06};        // 6041h only; TPDO1 maps I89, I90, flags too
+  const uint8_t actual_part[] = {0xFF, 0xFF, 0x7F};  // 3 of 6064h's 4 bytes, no 606Ch
+  ASSERT_TRUE((*peer)->Send(transport::MakeCanFrame(0x180 + kNode, status_part)).ok());
+  ASSERT_TRUE((*peer)->Send(transport::MakeCanFrame(0x280 + kNode, actual_part)).ok());
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (drive_->counters().malformed_tpdos < 2 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(5ms);
+  }
+  EXPECT_EQ(drive_->counters().malformed_tpdos, 2u);
+  const uint64_t good = drive_->counters().actual_tpdos;
+  // TPDO2's event timer (100 ms) keeps the good frames coming: the position is the drive's.
+  const DriveStatus after =
+      WaitUntil([&](const DriveStatus&) { return drive_->counters().actual_tpdos > good; });
+  EXPECT_GT(drive_->counters().actual_tpdos, good);
+  EXPECT_EQ(after.state, before.state);
+  EXPECT_DOUBLE_EQ(after.position_mm, before.position_mm);
 }
 
 TEST_F(StoberDriveTest, RebootMidMoveFailsTheMoveAndNeverResumes) {
