@@ -83,11 +83,11 @@ void HealthModel::Enter(HealthState s) {
 }
 
 bool HealthModel::RecordSuccess() {
-  info_.consecutive_failures = 0;
   switch (info_.state) {
     case HealthState::kUp:
       return false;
     case HealthState::kDemoted:
+      info_.consecutive_failures = 0;
       info_.reason.clear();
       Enter(HealthState::kUp);
       return true;
@@ -96,6 +96,8 @@ bool HealthModel::RecordSuccess() {
       // flip it UP, and the family re-establishes its link (Trinamic re-applies parameters) in
       // between.
       backoff_ = config_.backoff_min;
+      failed_probes_ = 0;
+      info_.consecutive_failures = 0;
       info_.reason = "recovering";
       Enter(HealthState::kDemoted);
       return true;
@@ -111,22 +113,22 @@ void HealthModel::GoDown(absl::string_view reason) {
 }
 
 bool HealthModel::RecordFailure(absl::string_view reason) {
-  if (info_.consecutive_failures < UINT32_MAX) ++info_.consecutive_failures;
   switch (info_.state) {
     case HealthState::kUp:
-    case HealthState::kDemoted: {
-      const bool was_up = info_.state == HealthState::kUp;
-      if (static_cast<int64_t>(info_.consecutive_failures) >= config_.down_after_failures) {
-        GoDown(absl::StrCat(info_.consecutive_failures, " consecutive ", reason));
-        return true;
-      }
+    case HealthState::kDemoted:
+      if (info_.consecutive_failures < UINT32_MAX) ++info_.consecutive_failures;
       info_.reason = absl::StrCat(info_.consecutive_failures, " consecutive ", reason);
-      if (was_up) Enter(HealthState::kDemoted);
-      return was_up;
-    }
+      if (static_cast<int64_t>(info_.consecutive_failures) >= config_.down_after_failures) {
+        GoDown(info_.reason);
+      } else if (info_.state == HealthState::kUp) {
+        Enter(HealthState::kDemoted);
+      }
+      return true;
     case HealthState::kDown:
       // A failed probe: wait twice as long before the next (bounded), so a dead drive on a shared
-      // line costs ever less of the line's time.
+      // line costs ever less of the line's time. The published info stays as it was when the
+      // drive went DOWN (a dead drive probed every cycle must not republish its status each time).
+      ++failed_probes_;
       backoff_ = std::min(config_.backoff_max, std::max(config_.backoff_min, backoff_ * 2));
       next_probe_ = clock_.Now() + backoff_;
       return false;
@@ -135,11 +137,12 @@ bool HealthModel::RecordFailure(absl::string_view reason) {
 }
 
 bool HealthModel::ForceDown(absl::string_view reason) {
-  if (info_.consecutive_failures < UINT32_MAX) ++info_.consecutive_failures;
   if (info_.state == HealthState::kDown) {
+    if (info_.reason == reason) return false;
     info_.reason = std::string(reason);
-    return false;
+    return true;
   }
+  if (info_.consecutive_failures < UINT32_MAX) ++info_.consecutive_failures;
   GoDown(reason);
   return true;
 }

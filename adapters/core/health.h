@@ -48,6 +48,8 @@ struct HealthInfo {
   HealthState state = HealthState::kDown;
   // When `state` was entered (wall clock, for the API and the UNAVAILABLE message).
   std::chrono::system_clock::time_point since{};
+  // The consecutive failures that led to `state` (frozen while DOWN: failed probes only lengthen
+  // the back-off, see HealthModel::failed_probes).
   uint32_t consecutive_failures = 0;
   std::string reason;  // the last failure's cause, e.g. "3 consecutive time-outs"
 
@@ -69,7 +71,7 @@ class HealthModel {
   // call in the first milliseconds after activation is not refused for a reply not yet due.
   explicit HealthModel(HealthConfig config, const Clock& clock = SteadyClock::Instance());
 
-  // Each returns true when the state changed (the caller then publishes and logs).
+  // Each returns true when info() changed (the caller then hands it to DriveBase::SetHealth).
   // A successful exchange: UP from UP or DEMOTED; DOWN -> DEMOTED (recovering: the family
   // re-establishes its link, e.g. re-applies parameters); the next success makes it UP.
   bool RecordSuccess();
@@ -89,6 +91,8 @@ class HealthModel {
   TimePoint next_probe() const;
   // The current probe interval of a DOWN link (backoff_min after going DOWN, doubling).
   std::chrono::milliseconds backoff() const { return backoff_; }
+  // Probes that failed since the drive went DOWN.
+  uint64_t failed_probes() const { return failed_probes_; }
 
   HealthState state() const { return info_.state; }
   const HealthInfo& info() const { return info_; }
@@ -103,6 +107,7 @@ class HealthModel {
   HealthInfo info_;
   std::chrono::milliseconds backoff_;
   TimePoint next_probe_{};
+  uint64_t failed_probes_ = 0;
 };
 
 }  // namespace drivegw

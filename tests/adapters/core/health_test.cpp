@@ -31,7 +31,8 @@ TEST(HealthModel, StartsDemotedUntilTheFirstReply) {
 TEST(HealthModel, ANeverAnsweringDriveGoesDownAtTheCount) {
   ManualClock clock;
   HealthModel m(Config(2, 100, 5000), clock);
-  EXPECT_FALSE(m.RecordFailure("time-outs"));
+  EXPECT_TRUE(m.RecordFailure("time-outs"));
+  EXPECT_EQ(m.state(), HealthState::kDemoted);
   EXPECT_TRUE(m.RecordFailure("time-outs"));
   EXPECT_EQ(m.state(), HealthState::kDown);
 }
@@ -71,7 +72,7 @@ TEST(HealthModel, FailuresDemoteThenDownAtTheConfiguredCount) {
   EXPECT_TRUE(m.RecordFailure("time-outs"));
   EXPECT_EQ(m.state(), HealthState::kDemoted);
   EXPECT_EQ(m.info().consecutive_failures, 1u);
-  EXPECT_FALSE(m.RecordFailure("time-outs"));
+  EXPECT_TRUE(m.RecordFailure("time-outs"));  // the count is part of the published info
   EXPECT_EQ(m.state(), HealthState::kDemoted);
   EXPECT_TRUE(m.RecordFailure("time-outs"));
   EXPECT_EQ(m.state(), HealthState::kDown);
@@ -122,6 +123,8 @@ TEST(HealthModel, ProbesOfADownLinkBackOffDoublingToTheCeiling) {
     EXPECT_TRUE(m.ProbeDue());
   }
   EXPECT_EQ(seen, (std::vector<int64_t>{200, 400, 500, 500, 500}));
+  EXPECT_EQ(m.failed_probes(), 5u);
+  EXPECT_EQ(m.info().consecutive_failures, 1u);  // frozen while DOWN
   // Recovery resets the back-off for the next loss.
   m.RecordSuccess();
   m.RecordSuccess();
@@ -158,8 +161,9 @@ TEST(HealthModel, ForceDownIgnoresTheCount) {
   EXPECT_TRUE(m.ForceDown("heartbeat lost"));
   EXPECT_EQ(m.state(), HealthState::kDown);
   EXPECT_EQ(m.info().reason, "heartbeat lost");
-  EXPECT_FALSE(m.ForceDown("bus off"));
+  EXPECT_TRUE(m.ForceDown("bus off"));  // the reason is published
   EXPECT_EQ(m.info().reason, "bus off");
+  EXPECT_FALSE(m.ForceDown("bus off"));
 }
 
 TEST(HealthModel, SinceMovesOnlyOnAStateChange) {
