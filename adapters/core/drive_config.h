@@ -75,6 +75,10 @@ struct TrinamicConfig {
   std::chrono::milliseconds poll_period{20};     // position/activity polling of this axis
   std::chrono::milliseconds reply_timeout{100};  // one query
   int offline_after_misses = 3;                  // consecutive misses -> OFFLINE (decision 1054)
+  // Probe back-off of an OFFLINE controller, doubling (decision 1431: drives[i].health.backoff_*,
+  // folded in by the factory; axes on one controller must agree).
+  std::chrono::milliseconds retry_min{100};
+  std::chrono::milliseconds retry_max{5000};
   // Values written at activation and re-sent after every detected controller reset (G-24):
   // "$14.vmax" -> 300 (opcode and field names of the instruction table, codec.cpp).
   std::vector<std::pair<std::string, int64_t>> parameters;
