@@ -8,9 +8,9 @@
 #include <limits>
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "absl/strings/match.h"
 #include "absl/strings/str_join.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
@@ -241,6 +241,12 @@ absl::Status LinMotDnDrive::DoActivate() {
   po.explicit_epr_ms = options_.explicit_epr_ms;
   po.explicit_timeout = options_.explicit_timeout;
   po.restart_wait = options_.restart_wait;
+  // drives[i].health (decision 1431); absent keys keep the session defaults (the watchdog
+  // decides, set-up back-off 100 ms..2 s). Register validates, naming the key.
+  const HealthOverrides& h = config().health;
+  if (h.down_after_failures) po.down_after_failures = *h.down_after_failures;
+  if (h.backoff_min) po.retry_min = *h.backoff_min;
+  if (h.backoff_max) po.retry_max = *h.backoff_max;
   po.wire_trace = wire_trace_;
   absl::StatusOr<PeerId> id = session->Register(po, this);
   std::lock_guard lock(mu_);
@@ -1251,7 +1257,8 @@ std::optional<Motor> MotorFor(const CommandSpec& spec, Motor motor) {
 // The command behind a parameter id, after the checks Read and Write share: no stored (ROM)
 // values in this generation (`rom_reason` says why for the operation), ids 0x00-0x7F, and a
 // command that §8.4 defines.
-absl::StatusOr<const CommandSpec*> ParameterCommand(const ParameterRef& ref, const std::string& where,
+absl::StatusOr<const CommandSpec*> ParameterCommand(const ParameterRef& ref,
+                                                    const std::string& where,
                                                     const char* rom_reason) {
   if (ref.rom) return absl::InvalidArgumentError(absl::StrCat(where, ".rom: ", rom_reason));
   if (ref.id > 0x7F) {
