@@ -247,6 +247,9 @@ absl::StatusOr<v1::MoveCoordinatedResponse> DriveServiceCore::MoveCoordinated(
     }
     auto move = ValidateMoveCoordinated(r, axes);
     if (!move.ok()) return move.status();
+    for (Drive* d : group) {
+      if (auto down = RefuseIfDown(*d, "MoveCoordinated"); !down.ok()) return down;
+    }
     auto infos = group[0]->MoveCoordinated(*move, std::span<Drive* const>(group));
     if (!infos.ok()) return infos.status();
     if (infos->size() != group.size()) {
