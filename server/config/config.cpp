@@ -257,11 +257,10 @@ void ParseHealth(const Section& drive, HealthOverrides& out) {
                                 out.backoff_max->count()),
                    *s.Get("backoff_min_ms"));
   }
-  for (auto [section, key] :
-       {std::pair<std::string_view, std::string_view>{"linudp", "lost_after_timeouts"},
-        {"trinamic", "offline_after_misses"}}) {
+  for (auto [section, key] : {std::pair<const char*, const char*>{"linudp", "lost_after_timeouts"},
+                              {"trinamic", "offline_after_misses"}}) {
     auto family = drive.Get(section);
-    if (out.down_after_failures && family && family->IsMap() && (*family)[std::string(key)]) {
+    if (out.down_after_failures && family && family->IsMap() && (*family)[key]) {
       s.errors().Add(s.Child("down_after_failures"),
                      absl::StrCat("also given as ", drive.Child(section), ".", key,
                                   " (the same count): give one"),
