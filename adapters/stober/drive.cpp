@@ -340,6 +340,12 @@ void StoberDrive::OnHeartbeat(uint8_t, co::NmtState state, TimePoint) noexcept {
   ++heartbeats_;
   heartbeat_state_ = state;
   cv_.notify_all();
+  // A heartbeat of the configured, OPERATIONAL node is a success of the shared model (decision
+  // 1431): it comes every canopen.heartbeat, also while no status TPDO changes.
+  if (configured_ && !configuring_ && link_ok_ && state == co::NmtState::kOperational && health_ &&
+      health_->RecordSuccess()) {
+    PublishHealthLocked();
+  }
   if (configured_ && !configuring_ && state != co::NmtState::kOperational) {
     // 1029h or another master moved the node: PDOs stopped, configure it again.
     configured_ = false;
