@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -392,14 +393,20 @@ struct HealthPeer final : SessionPeer {
   HealthInfo health;
 };
 
-// Replies of each live drive during one window of `w` (a count; the window only bounds it).
+// Replies of each live drive in the best of three windows of `w` (a count; the window only
+// bounds it). The best of three: a loaded machine (ctest -j2 beside other suites) steals CPU in
+// some windows, a dead drive slowing the bus would lower all three.
 std::vector<int> RepliesIn(std::vector<HealthPeer*> peers, std::chrono::milliseconds w) {
-  std::vector<int> before;
-  for (HealthPeer* p : peers) before.push_back(p->Responses());
-  std::this_thread::sleep_for(w);  // the measurement window itself, not a wait for a condition
-  std::vector<int> out;
-  for (size_t i = 0; i < peers.size(); ++i) out.push_back(peers[i]->Responses() - before[i]);
-  return out;
+  std::vector<int> best(peers.size(), 0);
+  for (int round = 0; round < 3; ++round) {
+    std::vector<int> start;
+    for (HealthPeer* p : peers) start.push_back(p->Responses());
+    std::this_thread::sleep_for(w);  // the measurement window itself, not a wait for a condition
+    for (size_t i = 0; i < peers.size(); ++i) {
+      best[i] = std::max(best[i], peers[i]->Responses() - start[i]);
+    }
+  }
+  return best;
 }
 
 // Three drives on one CAN bus, one session; the third dies. It goes DOWN and is probed only at
@@ -423,25 +430,25 @@ TEST(DnSession, SharedBus_DeadDriveDownProbedAtBackoff_OthersKeepTheirRate) {
   ASSERT_TRUE(id5.ok() && id6.ok() && id7.ok());
   for (HealthPeer* p : {&p5, &p6, &p7}) ASSERT_TRUE(p->WaitHealth(HealthState::kUp));
 
-  const std::vector<int> before = RepliesIn({&p5, &p6}, 1000ms);
-  ASSERT_GT(before[0], 20);  // polls every 10 ms: far more than 20 in a second, even loaded
-  ASSERT_GT(before[1], 20);
+  const std::vector<int> before = RepliesIn({&p5, &p6}, 500ms);
+  ASSERT_GT(before[0], 10);  // polls every 10 ms: far more than 10 in half a second, even loaded
+  ASSERT_GT(before[1], 10);
 
   sim7->Stop();
   ASSERT_TRUE(p7.WaitHealth(HealthState::kDown));
   EXPECT_FALSE(p7.Health().reason.empty());
   const uint64_t probes_before = (*session)->peer_counters(*id7)->explicit_requests;
-  const std::vector<int> after = RepliesIn({&p5, &p6}, 1000ms);
+  const std::vector<int> after = RepliesIn({&p5, &p6}, 500ms);
   const uint64_t probes = (*session)->peer_counters(*id7)->explicit_requests - probes_before;
 
   for (size_t i = 0; i < 2; ++i) {
     EXPECT_GE(after[i] * 10, before[i] * 8)
         << "drive " << (i + 5) << ": " << after[i] << " replies after, " << before[i] << " before";
   }
-  // Set-up attempts of the dead drive: at most one per back-off (>= 100 ms, doubling to 400 ms),
-  // each a Release and an Allocate at most: <= 2 x (1000 / 100 + 1), where polling it like a live
-  // drive would be 100 requests.
-  EXPECT_LE(probes, 22u) << probes << " set-up requests to the dead drive in the window";
+  // Set-up attempts of the dead drive over the three windows (1.5 s): at most one per back-off
+  // (>= 100 ms, doubling to 400 ms), each a Release and an Allocate at most: <= 2 x (1500 / 100
+  // + 1), where polling it like a live drive would be 150 requests.
+  EXPECT_LE(probes, 32u) << probes << " set-up requests to the dead drive in the window";
   EXPECT_EQ(p7.Health().state, HealthState::kDown);
 }
 
