@@ -20,6 +20,7 @@
 #include "adapters/core/curve.h"
 #include "adapters/core/drive_config.h"
 #include "adapters/core/executor.h"
+#include "adapters/core/health.h"
 
 namespace drivegw {
 
@@ -86,6 +87,10 @@ struct DriveStatus {
   std::optional<CommandInfo> last_command;
   WallTime time{};
   uint64_t sequence = 0;  // set by DriveBase::PublishStatus
+  // UP/DEMOTED/DOWN of the drive's link (decision 1431), kept by DriveBase::SetHealth: the
+  // family's PublishStatus never overwrites it. Empty for a drive whose family reports none (a
+  // test double): the core then refuses nothing on health grounds.
+  std::optional<HealthInfo> health;
 };
 
 enum class Lifecycle { kUnconfigured, kActive, kInactive };

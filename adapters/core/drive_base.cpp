@@ -143,8 +143,31 @@ void DriveBase::PublishStatus(DriveStatus status) {
   if (last_command_id_) {
     if (Entry* e = FindLocked(*last_command_id_)) status.last_command = e->info;
   }
+  status.health = status_.health;
   status_ = std::move(status);
   changed_.notify_all();
+}
+
+void DriveBase::SetHealth(const HealthInfo& health) {
+  std::lock_guard lock(mu_);
+  if (status_.health == health) return;
+  const HealthState from = status_.health ? status_.health->state : HealthState::kDown;
+  if (!status_.health || from != health.state) {
+    log::Fields fields;
+    fields.Add("drive", config_.name)
+        .Add("family", config_.family)
+        .Add("from", status_.health ? ToString(from) : "NONE")
+        .Add("to", ToString(health.state))
+        .Add("failures", health.consecutive_failures)
+        .Add("reason", health.reason);
+    if (health.state == HealthState::kDown) {
+      log::Warn("drive_health", fields);
+    } else {
+      log::Info("drive_health", fields);
+    }
+  }
+  status_.health = health;
+  RepublishLocked();
 }
 
 void DriveBase::RepublishLocked() {

@@ -31,8 +31,13 @@ class DriveBase : public Drive {
   virtual absl::Status DoActivate() = 0;
   virtual void DoDeactivate() = 0;
 
-  // Publishes a new snapshot: stamps time, sequence and the newest command, wakes waiters.
+  // Publishes a new snapshot: stamps time, sequence, the newest command and the health, wakes
+  // waiters.
   void PublishStatus(DriveStatus status);
+  // The family's HealthModel changed (decision 1431): republishes when `health` differs from the
+  // snapshot's and logs a state change as event=drive_health. Takes only this drive's leaf lock,
+  // so a session may call it from its I/O thread with its own locks held.
+  void SetHealth(const HealthInfo& health);
 
   // Creates a BUSY command; a still-running motion command of the same group is ABORTED
   // (PLCopen: a new move supersedes the running one).

@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "adapters/core/health.h"
+
 namespace drivegw {
 
 enum class AxisKind { kLinear, kRotary };
@@ -24,8 +26,8 @@ struct AxisConfig {
 // LinUDP transport (linmot-linudp.md §1, A-01, A-10).
 struct LinUdpConfig {
   std::string host = "127.0.0.1";
-  uint16_t port = 49360;         // drive port
-  uint16_t master_port = 41136;  // local port the gateway binds
+  uint16_t port = 49360;              // drive port
+  uint16_t master_port = 41136;       // local port the gateway binds
   std::string bind_host = "0.0.0.0";  // local address of the master socket
   std::chrono::milliseconds cycle{5};
   std::chrono::milliseconds reply_timeout{50};
@@ -48,7 +50,7 @@ struct CanBusConfig {
   // kUdpMulticast: bit rate each node paces its own frames at (bit/s: 125000, 250000, 500000,
   // 1000000); 0 = unpaced (docs/decisions/805-udp-bus-bit-timing.md).
   uint32_t bitrate = 0;
-  std::string trace_file;              // candump -l log of every frame in and out; empty: off
+  std::string trace_file;  // candump -l log of every frame in and out; empty: off
 };
 
 // RS-232 / RS-485 line of a serial family (trinamic-sixpack.md §2.1; opened as
@@ -65,14 +67,18 @@ struct SerialLineConfig {
 struct TrinamicConfig {
   std::optional<SerialLineConfig> serial;  // exactly one of serial / can
   std::optional<CanBusConfig> can;
-  uint8_t address = 1;               // controller unit address 1..255 (rotary switches, G-05)
-  uint8_t axis = 0;                  // motor number: 0..5 SIXpack, 0..3 QUADpack (G-17)
-  int axes = 6;                      // 6 = SIXpack, 4 = QUADpack
-  double microsteps_per_unit = 0;    // microsteps per mm (per degree on a rotary axis); > 0
-  uint8_t response_address = 0xF0;   // RA of every query (§2.4, decision 1052)
-  std::chrono::milliseconds poll_period{20};    // position/activity polling of this axis
+  uint8_t address = 1;              // controller unit address 1..255 (rotary switches, G-05)
+  uint8_t axis = 0;                 // motor number: 0..5 SIXpack, 0..3 QUADpack (G-17)
+  int axes = 6;                     // 6 = SIXpack, 4 = QUADpack
+  double microsteps_per_unit = 0;   // microsteps per mm (per degree on a rotary axis); > 0
+  uint8_t response_address = 0xF0;  // RA of every query (§2.4, decision 1052)
+  std::chrono::milliseconds poll_period{20};     // position/activity polling of this axis
   std::chrono::milliseconds reply_timeout{100};  // one query
   int offline_after_misses = 3;                  // consecutive misses -> OFFLINE (decision 1054)
+  // Probe back-off of an OFFLINE controller, doubling (decision 1431: drives[i].health.backoff_*,
+  // folded in by the factory; axes on one controller must agree).
+  std::chrono::milliseconds retry_min{100};
+  std::chrono::milliseconds retry_max{5000};
   // Values written at activation and re-sent after every detected controller reset (G-24):
   // "$14.vmax" -> 300 (opcode and field names of the instruction table, codec.cpp).
   std::vector<std::pair<std::string, int64_t>> parameters;
@@ -80,10 +86,10 @@ struct TrinamicConfig {
 
 // CANopen node timing (CiA 301) of a CANopen family (STOBER; docs/config.md "canopen").
 struct CanOpenConfig {
-  std::chrono::milliseconds heartbeat{100};      // producer time written to the drive's 1017h
+  std::chrono::milliseconds heartbeat{100};          // producer time written to the drive's 1017h
   std::chrono::milliseconds heartbeat_timeout{350};  // consumer: missing longer -> OFFLINE
-  std::chrono::milliseconds sync_period{2};      // SYNC producer period (cyclic set points)
-  std::chrono::milliseconds sdo_timeout{1000};   // per SDO frame exchange (decision 1103)
+  std::chrono::milliseconds sync_period{2};          // SYNC producer period (cyclic set points)
+  std::chrono::milliseconds sdo_timeout{1000};       // per SDO frame exchange (decision 1103)
   // RPDO transmission type (CiA 301 1400h sub 2): 255 event-driven (applied on reception),
   // 0..240 synchronous (applied at the next SYNC; the SYNC producer then runs; decision 1119).
   uint8_t rpdo_transmission_type = 255;
@@ -106,6 +112,9 @@ struct DriveConfig {
   std::optional<TrinamicConfig> trinamic;
   std::optional<uint8_t> node_id;  // CANopen node ID 1..127 (family stober)
   CanOpenConfig canopen;           // CANopen timing (family stober)
+  // drives[i].health (decision 1431): consecutive failures to DOWN and the probe back-off of a
+  // DOWN drive; absent keys keep the family's own default.
+  HealthOverrides health;
 };
 
 }  // namespace drivegw

@@ -10,6 +10,7 @@
 #include "adapters/canopen/master_pool.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
+#include "adapters/stober/factory.h"
 #include "adapters/transport/can_channel.h"
 
 namespace drivegw::stober {
@@ -18,7 +19,6 @@ namespace {
 using namespace std::chrono_literals;
 namespace co = drivegw::canopen;
 
-constexpr Duration kRetryConfigure = 500ms;  // node absent: probe again (decision 1194)
 constexpr Duration kWorkerTick = 20ms;
 constexpr Duration kMinExecuteLow = 3ms;  // decision 1197 (1179: ≥ one A150 cycle)
 constexpr Duration kEdgeFallback = 10ms;
@@ -125,6 +125,8 @@ absl::Status StoberDrive::DoActivate() {
     link_ok_ = true;
     status_.reset();
     offline_reason_ = "configuring the node";
+    health_.emplace(StoberHealthConfig(config()), clock_);
+    PublishHealthLocked();
     PublishLocked();
   }
   worker_ = std::thread([this] { RunWorker(); });
@@ -182,10 +184,18 @@ void StoberDrive::RunWorker() {
         link_ok_ = true;
         ++counters_.configurations;
         log::Info("stober_configured", log::Fields().Add("drive", config().name));
+        health_->RecordSuccess();  // DOWN -> DEMOTED (recovering); the first status TPDO -> UP
+        PublishHealthLocked();
       } else if (!s.ok()) {
         ++counters_.configure_failures;
         offline_reason_ = std::string(s.message());
-        next_try_ = clock_.Now() + kRetryConfigure;
+        // Decision 1431: the shared model counts the failure and sets the back-off (default
+        // 500 ms, constant: health.backoff_*_ms, StoberHealthConfig, decision 1194).
+        health_->RecordFailure("configuration failures");
+        PublishHealthLocked();
+        next_try_ = health_->state() == HealthState::kDown
+                        ? health_->next_probe()
+                        : clock_.Now() + health_->config().backoff_min;
       }
       PublishLocked();
       cv_.notify_all();
@@ -330,6 +340,12 @@ void StoberDrive::OnHeartbeat(uint8_t, co::NmtState state, TimePoint) noexcept {
   ++heartbeats_;
   heartbeat_state_ = state;
   cv_.notify_all();
+  // A heartbeat of the configured, OPERATIONAL node is a success of the shared model (decision
+  // 1431): it comes every canopen.heartbeat, also while no status TPDO changes.
+  if (configured_ && !configuring_ && link_ok_ && state == co::NmtState::kOperational && health_ &&
+      health_->RecordSuccess()) {
+    PublishHealthLocked();
+  }
   if (configured_ && !configuring_ && state != co::NmtState::kOperational) {
     // 1029h or another master moved the node: PDOs stopped, configure it again.
     configured_ = false;
@@ -389,6 +405,7 @@ void StoberDrive::OnTpdo(const co::TpdoEvent& event) noexcept {
   } else {
     return;
   }
+  if (configured_ && link_ok_ && health_ && health_->RecordSuccess()) PublishHealthLocked();
   PublishLocked();
   cv_.notify_all();
 }
@@ -424,8 +441,17 @@ void StoberDrive::OnLinkEvent(const co::NodeEventInfo& event) noexcept {
   cv_.notify_all();
 }
 
+void StoberDrive::PublishHealthLocked() {
+  if (health_) SetHealth(health_->info());
+}
+
 void StoberDrive::GoOfflineLocked(const std::string& reason, bool node_reset) {
   offline_reason_ = reason;
+  // Every cause here is an immediate loss (heartbeat, bus-off, reboot, left OPERATIONAL).
+  if (health_) {
+    health_->ForceDown(reason);
+    PublishHealthLocked();
+  }
   EndTrackerLocked(CommandState::kError, reason);
   if (node_reset) status_.reset();
   PublishLocked();

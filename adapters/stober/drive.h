@@ -20,6 +20,7 @@
 #include "adapters/canopen/master.h"
 #include "adapters/core/clock.h"
 #include "adapters/core/drive_base.h"
+#include "adapters/core/health.h"
 #include "adapters/stober/cia402_master.h"
 #include "adapters/stober/object_map.h"
 
@@ -202,7 +203,11 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   std::thread worker_;
   bool stop_ = false;
   bool need_config_ = false;
-  TimePoint next_try_{};     // next configuration attempt after a failure
+  TimePoint next_try_{};  // next configuration attempt after a failure
+  // Decision 1431: heartbeat loss, bus-off, a node that left OPERATIONAL or rebooted -> DOWN at
+  // once; failed configurations count and set the re-configuration back-off. Set by DoActivate.
+  std::optional<HealthModel> health_;
+  void PublishHealthLocked();
   uint64_t config_gen_ = 0;  // bumped by every event that invalidates a configuration
   bool configuring_ = false;
   bool configured_ = false;

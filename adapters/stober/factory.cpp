@@ -17,6 +17,13 @@ absl::Status Bad(const DriveConfig& c, const std::string& field, const std::stri
 
 }  // namespace
 
+HealthConfig StoberHealthConfig(const DriveConfig& config) {
+  HealthConfig defaults;
+  defaults.down_after_failures = 1;
+  defaults.backoff_min = defaults.backoff_max = std::chrono::milliseconds(500);
+  return ResolveHealthConfig(config.health, defaults);
+}
+
 absl::StatusOr<std::unique_ptr<Drive>> CreateStoberDrive(const DriveConfig& config,
                                                          const Clock& clock) {
   if (!config.can) return Bad(config, "can", "family 'stober' needs a CAN bus (can section)");
@@ -71,6 +78,11 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateStoberDrive(const DriveConfig& conf
   if (config.axis.min_mm >= config.axis.max_mm) {
     return Bad(config, "axis.min_mm",
                absl::StrCat(config.axis.min_mm, " must be below axis.max_mm ", config.axis.max_mm));
+  }
+  if (auto s = ValidateHealthConfig(StoberHealthConfig(config),
+                                    absl::StrCat("drive '", config.name, "'.health."));
+      !s.ok()) {
+    return s;
   }
   return std::unique_ptr<Drive>(std::make_unique<StoberDrive>(config, clock));
 }

@@ -1,5 +1,6 @@
 // Factory of the STOBER family: checks DriveConfig (can, node_id, canopen timing) naming the field,
-// then builds the CiA 402 / motion-core drive on the bus's shared CANopen master (stober-motion.md).
+// then builds the CiA 402 / motion-core drive on the bus's shared CANopen master
+// (stober-motion.md).
 #pragma once
 
 #include <memory>
@@ -14,6 +15,10 @@ namespace drivegw::stober {
 inline constexpr char kFamilyName[] = "stober";
 
 // InvalidArgument "drive 'axis-1'.node_id: 0 is not a CANopen node ID 1..127" etc.
+// drives[i].health over the family defaults (decision 1431): DOWN after 1 failed configuration
+// (the node is absent), re-configuration every 500 ms (decision 1194), i.e. no doubling.
+HealthConfig StoberHealthConfig(const DriveConfig& config);
+
 absl::StatusOr<std::unique_ptr<Drive>> CreateStoberDrive(const DriveConfig& config,
                                                          const Clock& clock);
 

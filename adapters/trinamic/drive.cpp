@@ -121,6 +121,8 @@ absl::Status TrinamicDrive::DoActivate() {
   }
   std::lock_guard lock(mu_);
   if (pack_->link_state() == LinkState::kOnline) link_ = LinkState::kOnline;
+  // The controller's health so far (decision 1431); later changes come through OnHealth.
+  SetHealth(pack_->health());
   PublishLocked();
   return absl::OkStatus();
 }

@@ -111,6 +111,7 @@ class TrinamicDrive final : public DriveBase, private PackListener {
   // PackListener (poll thread).
   void OnSample(const AxisSample& sample) noexcept override;
   void OnLink(LinkState state, const std::string& reason) noexcept override;
+  void OnHealth(const HealthInfo& health) noexcept override { SetHealth(health); }
   void OnControllerReset() noexcept override;
   void OnDuplicateAddress(const std::string& detail) noexcept override;
   std::vector<Command> ApplyCommands(bool controller) const override;

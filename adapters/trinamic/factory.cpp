@@ -67,6 +67,20 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateTrinamicDrive(const DriveConfig& co
   if (t.poll_period.count() <= 0) return Bad(config, "poll_period", "must be > 0 ms");
   if (t.reply_timeout.count() <= 0) return Bad(config, "reply_timeout", "must be > 0 ms");
   if (t.offline_after_misses < 1) return Bad(config, "offline_after_misses", "must be >= 1");
+  // Decision 1431: drives[i].health over the family defaults (offline_after_misses, 100 ms..5 s).
+  HealthConfig health;
+  health.down_after_failures = t.offline_after_misses;
+  health.backoff_min = t.retry_min;
+  health.backoff_max = t.retry_max;
+  health = ResolveHealthConfig(config.health, health);
+  if (auto s = ValidateHealthConfig(health, absl::StrCat("drive '", config.name, "'.health."));
+      !s.ok()) {
+    return s;
+  }
+  DriveConfig resolved = config;
+  resolved.trinamic->offline_after_misses = health.down_after_failures;
+  resolved.trinamic->retry_min = health.backoff_min;
+  resolved.trinamic->retry_max = health.backoff_max;
   // The whole axis range must be int32 microsteps (L60, L693).
   for (const auto& [field, mm] : {std::pair<const char*, double>{"min_mm", config.axis.min_mm},
                                   std::pair<const char*, double>{"max_mm", config.axis.max_mm}}) {
@@ -91,7 +105,7 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateTrinamicDrive(const DriveConfig& co
     }
     shadow.Set((*def)->id, value);
   }
-  return std::unique_ptr<Drive>(std::make_unique<TrinamicDrive>(config, clock, shadow));
+  return std::unique_ptr<Drive>(std::make_unique<TrinamicDrive>(resolved, clock, shadow));
 }
 
 }  // namespace drivegw::trinamic

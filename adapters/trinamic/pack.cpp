@@ -69,6 +69,15 @@ absl::Status SameTransport(const TrinamicConfig& have, const TrinamicConfig& wan
     return conflict("offline_after_misses", std::to_string(have.offline_after_misses),
                     std::to_string(want.offline_after_misses));
   }
+  // One HealthModel per controller (decision 1431): its axes share the back-off.
+  if (have.retry_min != want.retry_min) {
+    return conflict("health.backoff_min_ms", std::to_string(have.retry_min.count()),
+                    std::to_string(want.retry_min.count()));
+  }
+  if (have.retry_max != want.retry_max) {
+    return conflict("health.backoff_max_ms", std::to_string(have.retry_max.count()),
+                    std::to_string(want.retry_max.count()));
+  }
   return absl::OkStatus();
 }
 
@@ -100,6 +109,8 @@ SessionOptions SessionOptionsOf(const TrinamicConfig& c) {
   o.address = c.address;
   o.response_address = c.response_address;
   o.offline_after_misses = c.offline_after_misses;
+  o.retry_min = c.retry_min;
+  o.retry_max = c.retry_max;
   o.probe_timeout = std::max(c.reply_timeout, milliseconds(50));
   // A reset PACK talks 19200 again (L273, L899, G-40): the probe falls back to it.
   if (c.serial) o.reset_baud = kResetBaud;
@@ -437,6 +448,14 @@ void Pack::OnLinkChange(LinkState state, const std::string& reason) noexcept {
   cv_.notify_all();
 }
 
+void Pack::OnHealthChange(const HealthInfo& health) noexcept {
+  {
+    std::lock_guard lock(mu_);
+    events_.push_back(Event{Event::kHealth, LinkState::kUnknown, "", health});
+  }
+  cv_.notify_all();
+}
+
 void Pack::OnControllerReset(uint8_t) noexcept {
   {
     std::lock_guard lock(mu_);
@@ -469,6 +488,8 @@ void Pack::DispatchEvents() {
     for (PackListener* l : listeners) {
       if (e.kind == Event::kLink) {
         l->OnLink(e.state, e.text);
+      } else if (e.kind == Event::kHealth) {
+        l->OnHealth(e.health);
       } else {
         l->OnDuplicateAddress(e.text);
       }

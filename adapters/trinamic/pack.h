@@ -43,6 +43,8 @@ class PackListener {
   virtual ~PackListener() = default;
   virtual void OnSample(const AxisSample& sample) noexcept = 0;
   virtual void OnLink(LinkState state, const std::string& reason) noexcept = 0;
+  // The controller's health changed (decision 1431); every axis reports the same.
+  virtual void OnHealth(const HealthInfo& health) noexcept { (void)health; }
   // The PACK was reset and this axis's ApplyCommands were re-sent (CT-57).
   virtual void OnControllerReset() noexcept = 0;
   // A second controller answered with our address (decision 1055).
@@ -103,6 +105,8 @@ class Pack final : private SessionObserver {
   void PollSoon(uint8_t axis);
 
   LinkState link_state() const { return session_->link_state(); }
+  // The controller's UP/DEMOTED/DOWN (decision 1431), shared by its axes.
+  HealthInfo health() const { return session_->health(); }
   std::string link_reason() const;
   // Newest sample of every registered axis (the Pack's knowledge of motor activity, CT-56).
   std::map<uint8_t, AxisSample> samples() const;
@@ -132,9 +136,10 @@ class Pack final : private SessionObserver {
     std::optional<AxisSample> last;
   };
   struct Event {
-    enum Kind { kLink, kDuplicate } kind;
+    enum Kind { kLink, kDuplicate, kHealth } kind;
     LinkState state = LinkState::kUnknown;
     std::string text;
+    HealthInfo health;  // kHealth
   };
 
   Pack(TrinamicConfig config, std::string key, std::shared_ptr<ControllerSession> session);
@@ -152,6 +157,7 @@ class Pack final : private SessionObserver {
   void DispatchEvents();
 
   // SessionObserver (session I/O lock held: record and wake the thread only).
+  void OnHealthChange(const HealthInfo& health) noexcept override;
   void OnLinkChange(LinkState state, const std::string& reason) noexcept override;
   void OnControllerReset(uint8_t address) noexcept override;
   void OnSessionEvent(SessionEvent event, const std::string& detail) noexcept override;

@@ -325,6 +325,12 @@ absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::Open(
   if (options.offline_after_misses < 1) {
     return absl::InvalidArgumentError("trinamic session.offline_after_misses: must be >= 1");
   }
+  if (auto s = ValidateHealthConfig(
+          HealthConfig{options.offline_after_misses, options.retry_min, options.retry_max},
+          "trinamic session.health.");
+      !s.ok()) {
+    return s;
+  }
   if (auto s = link->Open(); !s.ok()) return s;
   return std::shared_ptr<ControllerSession>(new ControllerSession(std::move(link), options));
 }
@@ -334,7 +340,10 @@ ControllerSession::ControllerSession(std::unique_ptr<SessionLink> link,
     : options_(options),
       link_(std::move(link)),
       name_(absl::StrCat("trinamic ", link_->Name(), " address ", std::to_string(options.address))),
-      baud_(link_->baud()) {}
+      health_(HealthConfig{options.offline_after_misses, options.retry_min, options.retry_max}),
+      baud_(link_->baud()) {
+  health_info_ = health_.info();
+}
 
 int ControllerSession::AddObserver(SessionObserver* observer) {
   std::lock_guard<std::mutex> lock(observers_mutex_);
@@ -350,6 +359,28 @@ void ControllerSession::RemoveObserver(int id) {
 LinkState ControllerSession::link_state() const {
   std::lock_guard<std::mutex> lock(state_mutex_);
   return state_;
+}
+
+HealthInfo ControllerSession::health() const {
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  return health_info_;
+}
+
+std::chrono::milliseconds ControllerSession::probe_backoff() const {
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  return backoff_mirror_;
+}
+
+void ControllerSession::PublishHealth() {
+  const HealthInfo info = health_.info();
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    backoff_mirror_ = health_.backoff();
+    if (health_info_ == info) return;
+    health_info_ = info;
+  }
+  std::lock_guard<std::mutex> lock(observers_mutex_);
+  for (auto& [id, o] : observers_) o->OnHealthChange(info);
 }
 
 std::optional<ReplyFraming> ControllerSession::framing() const {
@@ -394,11 +425,11 @@ void ControllerSession::CheckReset(const Reply& reply) {
 }
 
 void ControllerSession::Miss(const std::string& reason) {
-  if (++misses_ < options_.offline_after_misses) return;
-  backoff_ = options_.retry_min;
-  next_probe_ = SessionClock::now() + backoff_;
-  SetState(LinkState::kOffline,
-           absl::StrCat(std::to_string(misses_), " consecutive misses, last: ", reason));
+  // Decision 1054 via the shared model (1431): OFFLINE (DOWN) after offline_after_misses
+  // consecutive misses; the model starts the probe back-off at retry_min.
+  health_.RecordFailure(absl::StrCat("misses, last: ", reason));
+  PublishHealth();
+  if (health_.state() == HealthState::kDown) SetState(LinkState::kOffline, health_.info().reason);
 }
 
 absl::StatusOr<Reply> ControllerSession::Exchange(const Command& command, Deadline deadline,
@@ -489,15 +520,21 @@ absl::Status ControllerSession::ProbeLocked() {
       std::lock_guard<std::mutex> lock(state_mutex_);
       ++counters_.probe_failures;
     }
-    backoff_ = std::min(options_.retry_max, std::max(options_.retry_min, backoff_ * 2));
-    next_probe_ = SessionClock::now() + backoff_;
     std::string why =
         absl::StrCat(Where(probe), ": probe failed: ", std::string(reply.status().message()));
+    // A failed probe: DOWN at once when not yet (the old OFFLINE on a failed connect), else the
+    // back-off doubles up to retry_max (decision 1431).
+    if (health_.state() == HealthState::kDown) {
+      health_.RecordFailure("probe failures");
+    } else {
+      health_.ForceDown(why);
+    }
+    PublishHealth();
     SetState(LinkState::kOffline, why);
     return absl::UnavailableError(why);
   }
-  misses_ = 0;
-  backoff_ = milliseconds(0);
+  health_.RecordSuccess();
+  PublishHealth();
   SetState(LinkState::kOnline, "unit information answered");
   CheckReset(*reply);
   return absl::OkStatus();
@@ -549,14 +586,15 @@ absl::StatusOr<std::optional<Reply>> ControllerSession::Transact(const Command& 
 absl::StatusOr<std::optional<Reply>> ControllerSession::TransactLocked(const Command& command,
                                                                        Deadline deadline) {
   if (link_state() != LinkState::kOnline) {
-    if (link_state() == LinkState::kOffline && SessionClock::now() < next_probe_) {
+    if (link_state() == LinkState::kOffline && !health_.ProbeDue()) {
       return absl::UnavailableError(absl::StrCat(Where(command), ": controller OFFLINE"));
     }
     if (auto s = ProbeLocked(); !s.ok()) return s;
   }
   auto reply = Exchange(command, deadline, /*detect=*/false);
   if (reply.ok()) {
-    misses_ = 0;
+    health_.RecordSuccess();
+    PublishHealth();
     CheckReset(*reply);
     return std::optional<Reply>(*reply);
   }
@@ -565,8 +603,9 @@ absl::StatusOr<std::optional<Reply>> ControllerSession::TransactLocked(const Com
     case absl::StatusCode::kNotFound:
       if (command.opcode == Opcode::kHardwareReset) {
         // $CC: the PACK boots ca. 1 s (L900) and then reports the reset flag (L853, G-43).
-        next_probe_ = SessionClock::now() + options_.reset_boot_time;
-        backoff_ = options_.retry_min;
+        health_.ForceDown("hardware reset ($CC) sent");
+        health_.ProbeNotBefore(SteadyClock::Instance().Now() + options_.reset_boot_time);
+        PublishHealth();
         SetState(LinkState::kOffline, "hardware reset ($CC) sent");
       }
       return std::optional<Reply>();  // silent command sent
@@ -593,8 +632,10 @@ absl::StatusOr<std::optional<Reply>> ControllerSession::TransactLocked(const Com
       }
       Emit(SessionEvent::kIoError, what);
       link_->Close();  // reopened by the next probe
-      misses_ = options_.offline_after_misses - 1;
-      Miss(what);
+      // The transport failed: OFFLINE at once, whatever the count (decision 1054).
+      health_.ForceDown(what);
+      PublishHealth();
+      SetState(LinkState::kOffline, what);
       return absl::UnavailableError(what);
     }
   }

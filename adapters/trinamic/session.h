@@ -17,6 +17,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "adapters/core/drive_config.h"
+#include "adapters/core/health.h"
 #include "adapters/transport/can_channel.h"
 #include "adapters/transport/serial_port.h"
 #include "adapters/trinamic/codec.h"
@@ -83,6 +84,8 @@ class SessionObserver {
   // A $43 reply carried the reset flag (§4.2 $43 P1, L853): every parameter is back at its
   // default (G-24); the drive re-sends its parameter set.
   virtual void OnControllerReset(uint8_t address) noexcept { (void)address; }
+  // The controller's HealthModel info changed (decision 1431).
+  virtual void OnHealthChange(const HealthInfo& health) noexcept { (void)health; }
   virtual void OnSessionEvent(SessionEvent event, const std::string& detail) noexcept {
     (void)event;
     (void)detail;
@@ -172,6 +175,10 @@ class ControllerSession {
   void RemoveObserver(int id);
 
   LinkState link_state() const;
+  // UP/DEMOTED/DOWN of the controller (decision 1431): DOWN exactly while OFFLINE.
+  HealthInfo health() const;
+  // The probe interval of an OFFLINE controller now (the shared model's back-off).
+  std::chrono::milliseconds probe_backoff() const;
   std::optional<ReplyFraming> framing() const;
   SessionCounters counters() const;
   std::string name() const { return name_; }
@@ -189,6 +196,8 @@ class ControllerSession {
   absl::Status SetBaudLocked(int baud);
   absl::StatusOr<Reply> Exchange(const Command& command, Deadline deadline, bool detect);
   void Miss(const std::string& reason);
+  // Hands a changed health to the observers (under the I/O lock, like the other events).
+  void PublishHealth();
   void SetState(LinkState state, const std::string& reason);
   void CheckReset(const Reply& reply);
   void Emit(SessionEvent event, const std::string& detail);
@@ -200,12 +209,13 @@ class ControllerSession {
 
   std::mutex io_mutex_;  // serialises requests (L357)
   Deadline last_word_end_{};
-  int misses_ = 0;
-  std::chrono::milliseconds backoff_{0};
-  Deadline next_probe_{};
+  // Miss counting, OFFLINE and the probe back-off (decision 1431); under io_mutex_.
+  HealthModel health_;
 
   mutable std::mutex state_mutex_;
   LinkState state_ = LinkState::kUnknown;
+  HealthInfo health_info_;  // health_.info() mirrored for health() without the I/O lock
+  std::chrono::milliseconds backoff_mirror_{0};
   std::optional<int> baud_;  // the link's rate, mirrored for baud() without the I/O lock
   SessionCounters counters_;
 

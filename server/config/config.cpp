@@ -233,6 +233,42 @@ void ParseTimeouts(const Section& drive, TimeoutConfig& out) {
   s.Millis("homing_ms", kMaxHomingMs, out.homing);
 }
 
+// drives[i].health (decision 1431): the keys every family shares. Each is optional; the family's
+// own default stands for an absent one. The family-specific count keys stay valid, so giving both
+// is ambiguous and refused.
+constexpr int64_t kMaxDownAfterFailures = 1000;
+constexpr int64_t kMaxBackoffMs = 600000;
+void ParseHealth(const Section& drive, HealthOverrides& out) {
+  auto node = drive.Get("health");
+  if (!node) return;
+  const Section s(*node, drive.Child("health"),
+                  {"down_after_failures", "backoff_min_ms", "backoff_max_ms"}, drive.errors());
+  if (!node->IsNull() && !node->IsMap()) return;
+  int64_t v = 0;
+  if (s.Int("down_after_failures", 1, kMaxDownAfterFailures, v)) {
+    out.down_after_failures = static_cast<int>(v);
+  }
+  // 0 = probe at the family's own pace (LinUDP: every cycle, its behaviour before decision 1431).
+  if (s.Int("backoff_min_ms", 0, kMaxBackoffMs, v)) out.backoff_min = std::chrono::milliseconds(v);
+  if (s.Int("backoff_max_ms", 0, kMaxBackoffMs, v)) out.backoff_max = std::chrono::milliseconds(v);
+  if (out.backoff_min && out.backoff_max && *out.backoff_min > *out.backoff_max) {
+    s.errors().Add(s.Child("backoff_min_ms"),
+                   absl::StrCat(out.backoff_min->count(), " must not exceed backoff_max_ms ",
+                                out.backoff_max->count()),
+                   *s.Get("backoff_min_ms"));
+  }
+  for (auto [section, key] : {std::pair<const char*, const char*>{"linudp", "lost_after_timeouts"},
+                              {"trinamic", "offline_after_misses"}}) {
+    auto family = drive.Get(section);
+    if (out.down_after_failures && family && family->IsMap() && (*family)[key]) {
+      s.errors().Add(s.Child("down_after_failures"),
+                     absl::StrCat("also given as ", drive.Child(section), ".", key,
+                                  " (the same count): give one"),
+                     *s.Get("down_after_failures"));
+    }
+  }
+}
+
 // drives[i].trinamic: required for family trinamic and only there; the family's transport lives
 // inside it, so the drive-level transport keys would be silently ignored (decision 405).
 void ParseTrinamicDrive(const Section& s, size_t index, DriveConfig& drive,
@@ -304,7 +340,7 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
     }
     const Section s(entry, path,
                     {"name", "family", "linudp", "can", "mac_id", "node_id", "canopen", "trinamic",
-                     "axis", "timeouts"},
+                     "axis", "timeouts", "health"},
                     errors);
     DriveConfig drive;
     if (s.String("name", drive.name, /*required=*/true)) {
@@ -379,6 +415,7 @@ void ParseDrives(const Section& root, std::span<const std::string_view> families
     }
     ParseAxis(s, drive.axis);
     ParseTimeouts(s, drive.timeouts);
+    ParseHealth(s, drive.health);
     ParseTrinamicDrive(s, i, drive, trinamic);
     internal::ParseCanOpenDrive(s, drive);
     canopen_nodes.Add(i, s, drive);
@@ -450,9 +487,10 @@ absl::StatusOr<GatewayConfig> ParseDocument(const YAML::Node& doc,
                                             std::span<const std::string_view> families) {
   GatewayConfig cfg;
   Errors errors;
-  const Section root(doc, "", {"listen", "data_dir", "drives", "tls", "audit", "shutdown_timeout_s",
-                                   "auth", "insecure"},
-                     errors);
+  const Section root(
+      doc, "",
+      {"listen", "data_dir", "drives", "tls", "audit", "shutdown_timeout_s", "auth", "insecure"},
+      errors);
   if (!doc.IsNull() && !doc.IsMap()) return errors.ToStatus();
   ParseListen(root, cfg.listen);
   internal::ParseAuth(root, cfg.auth);

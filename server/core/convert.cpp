@@ -90,6 +90,28 @@ v1::DriveStatus ToProto(const std::string& drive, const DriveStatus& s) {
   if (s.last_command) *p.mutable_last_command() = ToProto(drive, *s.last_command);
   *p.mutable_time() = ToTimestamp(s.time);
   p.set_sequence(s.sequence);
+  if (s.health) *p.mutable_health() = ToProto(*s.health);
+  return p;
+}
+
+v1::HealthState ToProto(HealthState s) {
+  switch (s) {
+    case HealthState::kUp:
+      return v1::UP;
+    case HealthState::kDemoted:
+      return v1::DEMOTED;
+    case HealthState::kDown:
+      return v1::DOWN;
+  }
+  return v1::HEALTH_STATE_UNSPECIFIED;
+}
+
+v1::DriveHealth ToProto(const HealthInfo& h) {
+  v1::DriveHealth p;
+  p.set_state(ToProto(h.state));
+  *p.mutable_since() = ToTimestamp(h.since);
+  p.set_consecutive_failures(h.consecutive_failures);
+  p.set_reason(h.reason);
   return p;
 }
 

@@ -15,6 +15,8 @@ v1::CommandState ToProto(CommandState s);
 v1::CommandHandle ToProto(const std::string& drive, const CommandInfo& c);
 v1::DriveStatus ToProto(const std::string& drive, const DriveStatus& s);
 v1::LinkHealth ToProto(const LinkHealth& h);
+v1::HealthState ToProto(HealthState s);
+v1::DriveHealth ToProto(const HealthInfo& h);
 // The status snapshot with the drive's current link health (issue 8).
 v1::DriveStatus StatusToProto(const Drive& d, const DriveStatus& s);
 v1::Axis ToProto(const AxisConfig& a);

@@ -33,6 +33,23 @@ std::vector<DriveEvent> DriveEventsBetween(const DriveStatus& before, const Driv
                    is_offline ? "the drive stopped answering" : "the drive answers",
                    StateJson(before), StateJson(after)});
   }
+  // Health (decision 1431): every change of UP/DEMOTED/DOWN. A drive without a snapshot health
+  // yet counts as DEMOTED ("no reply yet", where every HealthModel starts), so activation itself
+  // is no event but a drive first seen UP or DOWN is.
+  const HealthState health_before = before.health ? before.health->state : HealthState::kDemoted;
+  if (after.health && after.health->state != health_before) {
+    const HealthInfo& h = *after.health;
+    out.push_back({"drive.health",
+                   nlohmann::json{{"state", ToString(h.state)},
+                                  {"since", FormatRfc3339Utc(h.since)},
+                                  {"consecutive_failures", h.consecutive_failures},
+                                  {"reason", h.reason}}
+                       .dump(),
+                   h.reason.empty() ? absl::StrCat("health ", ToString(h.state))
+                                    : absl::StrCat("health ", ToString(h.state), ": ", h.reason),
+                   nlohmann::json{{"health", ToString(health_before)}}.dump(),
+                   nlohmann::json{{"health", ToString(h.state)}}.dump()});
+  }
   const bool fault_changed = HasFault(before) != HasFault(after) ||
                              before.fault.code != after.fault.code ||
                              before.fault.text != after.fault.text;

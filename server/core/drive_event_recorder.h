@@ -23,7 +23,8 @@ namespace drivegw::server {
 // One event found by comparing two published snapshots.
 struct DriveEvent {
   std::string action;  // "drive.fault", "drive.fault_cleared", "drive.warning",
-                       // "drive.warning_cleared", "drive.offline", "drive.online", "drive.homed"
+                       // "drive.warning_cleared", "drive.offline", "drive.online", "drive.homed",
+                       // "drive.health"
   std::string request_json;  // the drive's own data (fault code and text, warnings, warn word)
   std::string message;
   std::string before_json;  // {"state": ...} where the state changed

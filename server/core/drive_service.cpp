@@ -19,6 +19,32 @@
 #include "storage/audit_log.h"
 
 namespace drivegw::server {
+namespace {
+// "MoveAbsolute" -> "move_absolute" for the DOWN refusal (the API's method names in snake case).
+std::string SnakeCase(std::string_view action) {
+  std::string out;
+  for (char ch : action) {
+    if (ch >= 'A' && ch <= 'Z') {
+      if (!out.empty()) out.push_back('_');
+      out.push_back(static_cast<char>(ch - 'A' + 'a'));
+    } else {
+      out.push_back(ch);
+    }
+  }
+  return out;
+}
+}  // namespace
+
+absl::Status RefuseIfDown(const Drive& d, std::string_view action) {
+  // Decision 1431: a DOWN drive is refused at once, naming it and since when, instead of every
+  // call waiting out its own time-out on a link known to be dead. Only while ACTIVE: an inactive
+  // drive gets the lifecycle error of its family.
+  if (d.lifecycle() != Lifecycle::kActive) return absl::OkStatus();
+  const std::optional<HealthInfo> h = d.GetStatus().health;
+  if (!h || h->state != HealthState::kDown) return absl::OkStatus();
+  return DownError(d.config().name, *h, SnakeCase(action));
+}
+
 DriveServiceCore::DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives,
                                    storage::AuditLog* audit, const LeaseManager* leases)
     : drives_(std::move(drives)),
@@ -64,6 +90,11 @@ absl::StatusOr<v1::CommandHandle> DriveServiceCore::RunCommand(
     out = drive.status();
   } else if (!leased.ok()) {
     out = leased;
+  } else if (absl::Status down = std::string_view(action) == "Stop" ? absl::OkStatus()
+                                                                    : RefuseIfDown(**drive, action);
+             !down.ok()) {
+    // Stop still goes to the family: stopping is never refused by the gateway (decision 019).
+    out = down;
   } else {
     absl::StatusOr<CommandInfo> info = op(**drive);
     if (info.ok()) {
@@ -139,6 +170,8 @@ void DriveServiceCore::MoveAbsoluteAsync(const v1::MoveAbsoluteRequest& r, const
     refused = drive.status();
   } else if (absl::Status leased = CheckLease(leases_, drive_name, c); !leased.ok()) {
     refused = leased;
+  } else if (absl::Status down = RefuseIfDown(**drive, "MoveAbsolute"); !down.ok()) {
+    refused = down;
   } else if (auto valid = ValidateMoveAbsolute(r, (*drive)->config().axis); !valid.ok()) {
     refused = valid.status();
   } else {
@@ -214,6 +247,9 @@ absl::StatusOr<v1::MoveCoordinatedResponse> DriveServiceCore::MoveCoordinated(
     }
     auto move = ValidateMoveCoordinated(r, axes);
     if (!move.ok()) return move.status();
+    for (Drive* d : group) {
+      if (auto down = RefuseIfDown(*d, "MoveCoordinated"); !down.ok()) return down;
+    }
     auto infos = group[0]->MoveCoordinated(*move, std::span<Drive* const>(group));
     if (!infos.ok()) return infos.status();
     if (infos->size() != group.size()) {
@@ -264,6 +300,7 @@ absl::StatusOr<v1::Parameter> DriveServiceCore::ReadParameter(const v1::ReadPara
   if (auto s = ValidateParameterId("read_parameter", (*drive)->config().family, r.parameter_id());
       !s.ok())
     return s;
+  if (auto down = RefuseIfDown(**drive, "ReadParameter"); !down.ok()) return down;
   auto v = (*drive)->ReadParameter(ParameterRef{r.parameter_id(), r.rom()});
   if (!v.ok()) return v.status();
   v1::Parameter p;
@@ -287,6 +324,8 @@ absl::StatusOr<v1::Parameter> DriveServiceCore::WriteParameter(const v1::WritePa
     out = s;
   } else if (auto leased = CheckLease(leases_, drive_name, c); !leased.ok()) {
     out = leased;
+  } else if (auto down = RefuseIfDown(**drive, "WriteParameter"); !down.ok()) {
+    out = down;
   } else if (auto w = (*drive)->WriteParameter(ParameterRef{r.parameter_id(), r.rom()}, r.value());
              !w.ok()) {
     out = w;

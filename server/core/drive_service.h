@@ -25,6 +25,10 @@ class AuditLog;
 
 namespace drivegw::server {
 
+// UNAVAILABLE "drive 'x1' is DOWN since <RFC 3339 UTC> (<reason>): <action> refused" when the
+// ACTIVE drive's health is DOWN, else OK (decision 1431). `action` is the RPC name, "MoveAbsolute".
+absl::Status RefuseIfDown(const Drive& d, std::string_view action);
+
 class DriveServiceCore {
  public:
   // `audit` may be null (tests without storage); drives keep their order for ListDrives.

@@ -303,7 +303,17 @@ TEST_P(DriveContract, LUDP_A10_LinkLoss_OfflineThenRecovery) {
   ASSERT_EQ(lost.state, DriveState::kOffline);
   EXPECT_EQ(drive_->Move(MoveAbsolute{Mid(), 100, 1000, 1000}).status().code(),
             absl::StatusCode::kUnavailable);
+  // Decision 1431: every family reports the loss as DOWN through the shared model.
+  const DriveStatus down = WaitUntil(
+      [](const DriveStatus& s) { return s.health && s.health->state == HealthState::kDown; });
+  ASSERT_TRUE(down.health.has_value());
+  EXPECT_EQ(down.health->state, HealthState::kDown);
+  EXPECT_FALSE(down.health->reason.empty());
   ASSERT_TRUE(fixture_->SetAnswering(true).ok());
+  const DriveStatus up = WaitUntil(
+      [](const DriveStatus& s) { return s.health && s.health->state == HealthState::kUp; });
+  ASSERT_TRUE(up.health.has_value());
+  EXPECT_EQ(up.health->state, HealthState::kUp);
   if (!fixture_->EnabledAcrossLinkLoss()) {
     const DriveStatus back =
         WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; });

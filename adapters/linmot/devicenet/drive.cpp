@@ -241,6 +241,12 @@ absl::Status LinMotDnDrive::DoActivate() {
   po.explicit_epr_ms = options_.explicit_epr_ms;
   po.explicit_timeout = options_.explicit_timeout;
   po.restart_wait = options_.restart_wait;
+  // drives[i].health (decision 1431); absent keys keep the session defaults (the watchdog
+  // decides, set-up back-off 100 ms..2 s). Register validates, naming the key.
+  const HealthOverrides& h = config().health;
+  if (h.down_after_failures) po.down_after_failures = *h.down_after_failures;
+  if (h.backoff_min) po.retry_min = *h.backoff_min;
+  if (h.backoff_max) po.retry_max = *h.backoff_max;
   po.wire_trace = wire_trace_;
   absl::StatusOr<PeerId> id = session->Register(po, this);
   std::lock_guard lock(mu_);

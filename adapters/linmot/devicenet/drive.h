@@ -165,6 +165,7 @@ class LinMotDnDrive final : public DriveBase, private SessionPeer {
   void OnPollResponse(std::span<const uint8_t> produced, TimePoint received) noexcept override;
   bool HasUrgentRequest() noexcept override;
   void OnLinkChange(LinkState state, const std::string& reason) noexcept override;
+  void OnHealthChange(const HealthInfo& health) noexcept override { SetHealth(health); }
 
   // All *Locked members need mu_.
   CommandSlot BackgroundSlotLocked();

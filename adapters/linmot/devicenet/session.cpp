@@ -170,6 +170,17 @@ absl::StatusOr<PeerId> Session::Register(const PeerOptions& o, SessionPeer* peer
     p.peer = peer;
     p.ids = *ids;
     p.backoff = o.retry_min;
+    HealthConfig health;
+    health.down_after_failures =
+        o.down_after_failures > 0
+            ? o.down_after_failures
+            : static_cast<int>(kWatchdogMultiple * Ms(o.expected_packet_rate_ms) /
+                               std::max<Duration>(o.response_timeout, Duration(1))) +
+                  1;
+    health.backoff_min = std::chrono::duration_cast<std::chrono::milliseconds>(o.retry_min);
+    health.backoff_max = std::chrono::duration_cast<std::chrono::milliseconds>(o.retry_max);
+    if (auto s = ValidateHealthConfig(health, absl::StrCat(where, ".health.")); !s.ok()) return s;
+    p.health.emplace(health, clock_);
     p.reassembler = Reassembler(std::max(o.produced_size, kMaxFrameData));
     peers_.emplace(id, std::move(p));
   }
@@ -362,8 +373,15 @@ void Session::FailSetupLocked(Peer& p, TimePoint now, const std::string& why, bo
   p.pending_explicit.reset();
   p.poll_outstanding = false;
   p.step = Step::kBackoff;
-  p.retry_at = now + p.backoff;
-  p.backoff = std::min(p.backoff * 2, p.options.retry_max);
+  // Decision 1431: a failed set-up is DOWN at once (the old OFFLINE from the first failure); each
+  // further one doubles the shared model's back-off up to retry_max.
+  if (p.health->state() == HealthState::kDown) {
+    HealthChangedLocked(p, p.health->RecordFailure("set-up failures"));
+  } else {
+    HealthChangedLocked(p, p.health->ForceDown(why));
+  }
+  p.retry_at = now + p.health->backoff();
+  p.backoff = p.health->backoff();
   p.release_first = release_first;
   if (p.link == LinkState::kUnknown) SetLinkLocked(p, LinkState::kOffline, why);
 }
@@ -392,7 +410,12 @@ void Session::DropConnectionLocked(Peer& p, TimePoint now, const std::string& re
   p.poll_outstanding = false;
   p.reassembler.Reset();
   p.warned_setup = false;
+  if (reason != kUnregistered) HealthChangedLocked(p, p.health->ForceDown(reason));
   SetLinkLocked(p, LinkState::kOffline, reason);
+}
+
+void Session::HealthChangedLocked(Peer& p, bool changed) {
+  if (changed) p.peer->OnHealthChange(p.health->info());
 }
 
 void Session::BusLostLocked(TimePoint now, const std::string& reason) {
@@ -502,6 +525,12 @@ void Session::ServicePeerLocked(Peer& p, TimePoint now) {
     ++p.counters.poll_timeouts;
     p.reassembler.Reset();
     p.peer->OnPollTimeout();
+    HealthChangedLocked(p, p.health->RecordFailure("poll time-outs"));
+    if (p.health->state() == HealthState::kDown) {
+      // health.down_after_failures reached before the watchdog: the connection counts as lost.
+      DropConnectionLocked(p, now, p.health->info().reason, Duration::zero(), true);
+      return;
+    }
   }
   // §5.6 / §11.3: our side of the inactivity watchdog; the drive runs the same one.
   const Duration watchdog = kWatchdogMultiple * Ms(p.granted_epr_ms);
@@ -921,6 +950,7 @@ void Session::HandlePollResponseLocked(Peer& p, std::span<const uint8_t> data, T
   p.warned_setup = false;
   ++p.counters.poll_responses;
   SetLinkLocked(p, LinkState::kOnline, "");
+  HealthChangedLocked(p, p.health->RecordSuccess());
   p.peer->OnPollResponse(message, now);
 }
 

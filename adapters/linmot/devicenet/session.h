@@ -22,6 +22,7 @@
 #include "absl/status/statusor.h"
 #include "adapters/core/clock.h"
 #include "adapters/core/drive_config.h"
+#include "adapters/core/health.h"
 #include "adapters/linmot/devicenet/codec.h"
 #include "adapters/transport/can_channel.h"
 
@@ -90,6 +91,10 @@ struct PeerOptions {
   Duration retry_min = std::chrono::milliseconds(100);  // set-up back-off, doubling ...
   Duration retry_max = std::chrono::seconds(2);         // ... up to this
   Duration restart_wait = std::chrono::seconds(2);      // §11.8: drive restarted, wait >= 2 s
+  // Consecutive poll time-outs that end the connection as DOWN (health.down_after_failures,
+  // decision 1431). 0 = one more than fit into the inactivity watchdog (4 x EPR /
+  // response_timeout), so by default the watchdog decides, as before the shared model.
+  int down_after_failures = 0;
   // Wire trace switch (Drive::SetWireTrace): while it reads true, every frame to and from this
   // MAC ID is logged (adapters/core/wire_observer.h). Null: never.
   std::shared_ptr<const std::atomic<bool>> wire_trace;
@@ -114,6 +119,8 @@ class SessionPeer {
   // lost (watchdog, bus-off, drive restart, unregister). After kOffline the next connection starts
   // from a fresh image: the peer must drop whatever command it had (never replayed, decision 983).
   virtual void OnLinkChange(LinkState state, const std::string& reason) noexcept = 0;
+  // The peer's HealthModel info changed (decision 1431); same rules as the other callbacks.
+  virtual void OnHealthChange(const HealthInfo& health) noexcept { (void)health; }
 };
 
 using PeerId = uint64_t;
@@ -189,6 +196,8 @@ class Session {
     Step step = Step::kWaitBus;
     TimePoint retry_at{};
     Duration backoff{};
+    // Poll time-out counting, DOWN and the set-up back-off (decision 1431); set by Register.
+    std::optional<HealthModel> health;
     bool release_first = false;  // the next set-up starts with a Release
     bool warned_setup = false;   // set-up failure logged at warn once per outage
     bool warned_foreign = false;
@@ -230,6 +239,8 @@ class Session {
   void DropConnectionLocked(Peer& p, TimePoint now, const std::string& reason, Duration wait,
                             bool release_first);
   void BusLostLocked(TimePoint now, const std::string& reason);
+  // Hands a changed health to the peer.
+  static void HealthChangedLocked(Peer& p, bool changed);
   Peer* FindByMacLocked(uint8_t mac);
 
   const SessionOptions options_;

@@ -12,6 +12,7 @@
 #include "adapters/core/status.h"
 #include "adapters/core/units.h"
 #include "adapters/linmot/common/session_peer.h"
+#include "adapters/linmot/linudp/factory.h"
 #include "adapters/linmot/linudp/rtc_error.h"
 #include "adapters/linmot/mc/control_word.h"
 #include "adapters/linmot/mc/error_codes.h"
@@ -200,7 +201,12 @@ absl::Status LinMotUdpDrive::DoActivate() {
   options.remote = *remote;
   options.cycle = c.cycle;
   options.reply_timeout = c.reply_timeout;
-  options.lost_after_timeouts = c.lost_after_timeouts;
+  // Decision 1431: drives[i].health overrides the family defaults (lost_after_timeouts, probe
+  // every cycle); the factory validated the result.
+  const HealthConfig health = LinUdpHealthConfig(config());
+  options.lost_after_timeouts = health.down_after_failures;
+  options.probe_backoff_min = health.backoff_min;
+  options.probe_backoff_max = health.backoff_max;
   options.wire_trace = wire_trace_;
   absl::StatusOr<PeerId> id = (*session)->Register(options, this);
   std::lock_guard lock(mu_);

@@ -181,6 +181,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   void OnReply(const Reply& reply, TimePoint received) noexcept override;
   void OnTimeout() noexcept override;
   void OnLinkChange(LinkState state) noexcept override;
+  void OnHealthChange(const HealthInfo& health) noexcept override { SetHealth(health); }
 
   // All *Locked members need mu_.
   void EvaluateTrackersLocked(TimePoint now);

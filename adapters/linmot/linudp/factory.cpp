@@ -8,6 +8,13 @@
 
 namespace drivegw::linmot::linudp {
 
+HealthConfig LinUdpHealthConfig(const DriveConfig& config) {
+  HealthConfig defaults;
+  defaults.down_after_failures = config.linudp ? config.linudp->lost_after_timeouts : 5;
+  defaults.backoff_min = defaults.backoff_max = std::chrono::milliseconds(0);
+  return ResolveHealthConfig(config.health, defaults);
+}
+
 absl::StatusOr<std::unique_ptr<Drive>> CreateLinMotUdpDrive(const DriveConfig& config,
                                                             const Clock& clock) {
   const std::string where = absl::StrCat("drive '", config.name, "'");
@@ -39,6 +46,10 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateLinMotUdpDrive(const DriveConfig& c
   if (c.lost_after_timeouts < 1) {
     return absl::InvalidArgumentError(absl::StrCat(
         where, ".linudp.lost_after_timeouts: ", c.lost_after_timeouts, " must be at least 1"));
+  }
+  if (absl::Status s = ValidateHealthConfig(LinUdpHealthConfig(config), where + ".health.");
+      !s.ok()) {
+    return s;
   }
   transport::ThreadScheduling scheduling;
   scheduling.fifo_priority = c.io_priority;

@@ -21,6 +21,10 @@ std::shared_ptr<const ParameterCatalogue> LinMotParameterCatalogue();
 // InvalidArgument naming the field when `config.linudp` is missing or a LinUDP value cannot
 // work (e.g. "drive 'x1'.linudp.cycle: 0 ms is below 1 ms"); the drive starts UNCONFIGURED
 // (no socket until Activate). `clock` must outlive the drive.
+// The drive's health config (decision 1431): drives[i].health over the family defaults
+// (down_after_failures = linudp.lost_after_timeouts, back-off 0 = probe every cycle).
+HealthConfig LinUdpHealthConfig(const DriveConfig& config);
+
 absl::StatusOr<std::unique_ptr<Drive>> CreateLinMotUdpDrive(const DriveConfig& config,
                                                             const Clock& clock);
 

@@ -154,6 +154,15 @@ absl::StatusOr<PeerId> Session::Register(const PeerOptions& options, SessionPeer
         "drive '", options.name, "'.linudp.lost_after_timeouts: ", options.lost_after_timeouts,
         " must be at least 1"));
   }
+  HealthConfig health;
+  health.down_after_failures = options.lost_after_timeouts;
+  health.backoff_min = options.probe_backoff_min;
+  health.backoff_max = options.probe_backoff_max;
+  if (absl::Status s =
+          ValidateHealthConfig(health, absl::StrCat("drive '", options.name, "'.health."));
+      !s.ok()) {
+    return s;
+  }
   PeerId id;
   {
     std::lock_guard lock(mu_);
@@ -172,6 +181,7 @@ absl::StatusOr<PeerId> Session::Register(const PeerOptions& options, SessionPeer
     p.id = id;
     p.options = options;
     p.peer = peer;
+    p.health.emplace(health, clock_);
     p.next_send = now;
     p.period_start = now - (now - epoch_) % kGridTick;
     by_remote_.emplace(options.remote, &p);
@@ -267,6 +277,8 @@ void Session::ArmLocked(Peer& p, TimePoint now) {
   // Idle: the next period's telegram. Outstanding: the reply deadline, or the period
   // start first when that comes earlier (a reply arriving later then sends at once).
   TimePoint due = p.next_send;
+  // A DOWN drive is probed at its back-off (decision 1431); 0 ms keeps the cycle.
+  if (p.health->state() == HealthState::kDown) due = std::max(due, p.health->next_probe());
   if (p.outstanding)
     due = p.next_send > now ? std::min(p.next_send, p.reply_deadline) : p.reply_deadline;
   if (p.armed && p.armed_due == due) return;
@@ -327,13 +339,18 @@ void Session::ServicePeerLocked(Peer& p, TimePoint now) {
     ++p.counters.timeouts;
     ++p.consecutive_timeouts;
     p.peer->OnTimeout();
-    if (p.consecutive_timeouts >= p.options.lost_after_timeouts) {
-      SetLinkLocked(p, LinkState::kOffline);
-    }
+    // A-10 via the shared model (decision 1431): DOWN after lost_after_timeouts consecutive
+    // time-outs; while DOWN each unanswered probe lengthens the probe back-off.
+    if (p.health->RecordFailure("time-outs")) p.peer->OnHealthChange(p.health->info());
+    if (p.health->state() == HealthState::kDown) SetLinkLocked(p, LinkState::kOffline);
   }
   // A-07 keeps one request outstanding per drive; the cycle paces the status exchange, an
-  // urgent command leaves as soon as the line is free (decision 006).
-  if (!p.outstanding && (now >= p.next_send || p.peer->HasUrgentRequest())) QueueSendLocked(p, now);
+  // urgent command leaves as soon as the line is free (decision 006), even to a DOWN drive (a
+  // Stop is never held back); a DOWN drive's cyclic probe waits for its back-off.
+  if (!p.outstanding &&
+      ((now >= p.next_send && p.health->ProbeDue()) || p.peer->HasUrgentRequest())) {
+    QueueSendLocked(p, now);
+  }
   ArmLocked(p, now);
 }
 
@@ -419,6 +436,7 @@ void Session::HandleDatagramLocked(const transport::DatagramSlot& d, TimePoint n
   p.counters.last_round_trip_ms = std::chrono::duration<double, std::milli>(round_trip).count();
   wire::ObserveRoundTrip("linmot", p.options.name, round_trip);
   SetLinkLocked(p, LinkState::kOnline);
+  if (p.health->RecordSuccess()) p.peer->OnHealthChange(p.health->info());
   p.peer->OnReply(*reply, now);
   // A reply after its period's end lets the next telegram leave at once; an urgent command
   // leaves as soon as the line is free (decision 006).

@@ -18,6 +18,7 @@
 
 #include "absl/status/statusor.h"
 #include "adapters/core/clock.h"
+#include "adapters/core/health.h"
 #include "adapters/linmot/linudp/codec.h"
 #include "adapters/transport/endpoint.h"
 #include "adapters/transport/thread_scheduling.h"
@@ -80,6 +81,9 @@ class SessionPeer {
   // kOnline on the first reply and on recovery, kOffline after lost_after_timeouts consecutive
   // time-outs.
   virtual void OnLinkChange(LinkState state) noexcept = 0;
+  // The peer's HealthModel info changed (decision 1431): UP/DEMOTED/DOWN, count, reason. Same
+  // rules as the other callbacks; DriveBase::SetHealth qualifies (it takes a leaf lock only).
+  virtual void OnHealthChange(const HealthInfo& health) noexcept { (void)health; }
 };
 
 struct PeerOptions {
@@ -87,7 +91,12 @@ struct PeerOptions {
   transport::Endpoint remote;  // the drive: replies are routed by this ip:port
   std::chrono::milliseconds cycle{5};
   std::chrono::milliseconds reply_timeout{50};
-  int lost_after_timeouts = 5;
+  int lost_after_timeouts = 5;  // health.down_after_failures (decision 1431)
+  // Probe back-off of a DOWN drive (health.backoff_min_ms / backoff_max_ms, decision 1431):
+  // 0 = a telegram every cycle, as before the shared model (the drive has its own ip:port, so
+  // probing it costs the others nothing but a datagram).
+  std::chrono::milliseconds probe_backoff_min{0};
+  std::chrono::milliseconds probe_backoff_max{0};
   // Wire trace switch (Drive::SetWireTrace): while it reads true, every telegram to and from
   // this drive is logged as hex (adapters/core/wire_observer.h). Null: never.
   std::shared_ptr<const std::atomic<bool>> wire_trace;
@@ -158,6 +167,8 @@ class Session {
     ExchangeCounters counters;
     LinkState link = LinkState::kUnknown;
     int consecutive_timeouts = 0;
+    // Counting, state and probe back-off (decision 1431); set by Register.
+    std::optional<HealthModel> health;
     bool outstanding = false;
     uint32_t asked_response = 0;  // response definition of the outstanding request
     uint32_t sent_request = 0;    // request definition of the outstanding request

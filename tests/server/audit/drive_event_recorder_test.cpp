@@ -68,6 +68,44 @@ TEST(DriveEventsBetweenTest, EachKindOfChange) {
   EXPECT_EQ(ev[0].action, "drive.offline");
 }
 
+// Decision 1431: every change of the health state is an event, with state, since and reason.
+TEST(DriveEventsBetweenTest, HealthChanges) {
+  DriveStatus none;  // no health yet: counts as DEMOTED ("no reply yet")
+  DriveStatus up;
+  up.health = HealthInfo{HealthState::kUp, std::chrono::system_clock::time_point{}, 0, ""};
+  auto ev = DriveEventsBetween(none, up);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].action, "drive.health");
+  EXPECT_EQ(ev[0].before_json, R"({"health":"DEMOTED"})");
+  EXPECT_EQ(ev[0].after_json, R"({"health":"UP"})");
+  EXPECT_EQ(ev[0].message, "health UP");
+
+  DriveStatus demoted = up;
+  demoted.health->state = HealthState::kDemoted;
+  demoted.health->consecutive_failures = 1;
+  demoted.health->reason = "1 consecutive time-outs";
+  ev = DriveEventsBetween(up, demoted);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].message, "health DEMOTED: 1 consecutive time-outs");
+
+  DriveStatus demoted2 = demoted;  // the count moves, the state does not: no event
+  demoted2.health->consecutive_failures = 2;
+  EXPECT_TRUE(DriveEventsBetween(demoted, demoted2).empty());
+
+  DriveStatus down = demoted2;
+  down.health->state = HealthState::kDown;
+  down.health->since = std::chrono::sys_days{std::chrono::year{2026} / 12 / 7};
+  down.health->reason = "3 consecutive time-outs";
+  ev = DriveEventsBetween(demoted2, down);
+  ASSERT_EQ(ev.size(), 1u);
+  const auto j = nlohmann::json::parse(ev[0].request_json);
+  EXPECT_EQ(j["state"], "DOWN");
+  EXPECT_EQ(j["since"], "2026-12-07T00:00:00Z");
+  EXPECT_EQ(j["reason"], "3 consecutive time-outs");
+  EXPECT_EQ(ev[0].after_json, R"({"health":"DOWN"})");
+  EXPECT_TRUE(DriveEventsBetween(none, none).empty());
+}
+
 TEST(EventBudgetTest, CapsEachWindowAndReportsTheSuppressedCountWhenItEnds) {
   const auto t0 = std::chrono::steady_clock::time_point{} + 1h;
   EventBudget budget(3, 60s, t0);
@@ -134,6 +172,25 @@ class DriveEventRecorderTest : public storage::testing::AuditDbTest {
     }
   }
 
+  // An entry with `action` and `after_json` once it exists.
+  std::optional<storage::AuditRecord> WaitForRecord(const std::string& action,
+                                                    const std::string& after_json) {
+    const auto deadline = std::chrono::steady_clock::now() + kWait;
+    while (true) {
+      const int64_t last = log_->LastId().value_or(0);
+      storage::AuditQuery q;
+      q.action = action;
+      auto rows = log_->Query(q);
+      if (rows.ok()) {
+        for (const auto& r : *rows) {
+          if (r.after_json == after_json) return r;
+        }
+      }
+      if (std::chrono::steady_clock::now() >= deadline) return std::nullopt;
+      log_->WaitForAppend(last, std::min(deadline, std::chrono::steady_clock::now() + 200ms));
+    }
+  }
+
   std::unique_ptr<sim::linmot::LinMotServer> server_;
   std::shared_ptr<Drive> drive_;
   std::unique_ptr<DriveEventRecorder> recorder_;
@@ -170,6 +227,13 @@ TEST_F(DriveEventRecorderTest, OnlineHomedFaultOffline_RecordedAsTheDrive) {
   auto offline = WaitForAction("drive.offline");
   ASSERT_TRUE(offline.has_value());
   EXPECT_EQ(offline->after_json, R"({"state":"OFFLINE"})");
+  // Decision 1431: the link's health went DEMOTED and then DOWN, each an event of the drive.
+  auto down = WaitForRecord("drive.health", R"({"health":"DOWN"})");
+  ASSERT_TRUE(down.has_value());
+  EXPECT_EQ(down->principal, "drive:x1");
+  EXPECT_THAT(down->result_message, HasSubstr("3 consecutive time-outs"));
+  EXPECT_TRUE(WaitForRecord("drive.health", R"({"health":"DEMOTED"})").has_value());
+  EXPECT_TRUE(WaitForRecord("drive.health", R"({"health":"UP"})").has_value());
 
   recorder_->Stop();
   const storage::AuditVerifyReport v = VerifyOrDie();

@@ -709,3 +709,55 @@ TEST(DemoDrivesTest, TwoLinMotDrivesOnConsecutiveLoopbackPorts) {
 
 }  // namespace
 }  // namespace drivegw::config
+
+namespace drivegw::config {
+namespace {
+
+// ---- drives[i].health (decision 1431) ----
+
+constexpr char kAxisLine[] = "    axis:\n";
+
+TEST(ParseConfigTest, Health_AbsentKeysStayUnset_GivenOnesApplied) {
+  auto cfg = ParseConfig(kOneDrive);
+  ASSERT_TRUE(cfg.ok()) << cfg.status();
+  EXPECT_FALSE(cfg->drives[0].health.down_after_failures.has_value());
+  EXPECT_FALSE(cfg->drives[0].health.backoff_min.has_value());
+  cfg = ParseConfig(OneDriveWith(
+      kAxisLine,
+      "    health: {down_after_failures: 4, backoff_min_ms: 0, backoff_max_ms: 800}\n    axis:\n"));
+  ASSERT_TRUE(cfg.ok()) << cfg.status();
+  const HealthOverrides& h = cfg->drives[0].health;
+  EXPECT_EQ(h.down_after_failures, 4);
+  EXPECT_EQ(h.backoff_min, std::chrono::milliseconds(0));
+  EXPECT_EQ(h.backoff_max, std::chrono::milliseconds(800));
+}
+
+TEST(ParseConfigTest, Health_LimitsNameTheKey) {
+  EXPECT_THAT(Message(OneDriveWith(kAxisLine, "    health: {down_after_failures: 0}\n    axis:\n")),
+              HasSubstr("drives[0].health.down_after_failures: 0 is below 1"));
+  EXPECT_THAT(
+      Message(OneDriveWith(kAxisLine, "    health: {down_after_failures: 1001}\n    axis:\n")),
+      HasSubstr("drives[0].health.down_after_failures: 1001 exceeds 1000"));
+  EXPECT_THAT(Message(OneDriveWith(kAxisLine, "    health: {backoff_max_ms: 600001}\n    axis:\n")),
+              HasSubstr("drives[0].health.backoff_max_ms: 600001 exceeds 600000"));
+  EXPECT_THAT(Message(OneDriveWith(kAxisLine, "    health: {backoff_min_ms: -1}\n    axis:\n")),
+              HasSubstr("drives[0].health.backoff_min_ms: -1 is below 0"));
+  EXPECT_THAT(
+      Message(OneDriveWith(kAxisLine,
+                           "    health: {backoff_min_ms: 900, backoff_max_ms: 800}\n    axis:\n")),
+      HasSubstr("drives[0].health.backoff_min_ms: 900 must not exceed backoff_max_ms 800"));
+  EXPECT_THAT(Message(OneDriveWith(kAxisLine, "    health: {retries: 3}\n    axis:\n")),
+              HasSubstr("drives[0].health.retries"));
+}
+
+TEST(ParseConfigTest, Health_CountGivenTwice_Refused) {
+  std::string yaml = OneDriveWith("      host: 192.168.1.20\n",
+                                  "      host: 192.168.1.20\n      lost_after_timeouts: 4\n");
+  yaml =
+      absl::StrReplaceAll(yaml, {{kAxisLine, "    health: {down_after_failures: 4}\n    axis:\n"}});
+  EXPECT_THAT(Message(yaml), HasSubstr("drives[0].health.down_after_failures: also given as "
+                                       "drives[0].linudp.lost_after_timeouts"));
+}
+
+}  // namespace
+}  // namespace drivegw::config

@@ -149,6 +149,12 @@ class FakeDrive final : public Drive {
     state_ = state;
     ++sequence_;
   }
+  // The health GetStatus reports (default none, as for a family without supervision).
+  void SetHealthInfo(std::optional<HealthInfo> health) {
+    std::lock_guard lock(mu_);
+    health_ = std::move(health);
+    ++sequence_;
+  }
 
   const DriveConfig& config() const override { return config_; }
   std::string endpoint() const override { return "fake://" + config_.name; }
@@ -160,7 +166,16 @@ class FakeDrive final : public Drive {
   absl::StatusOr<CommandInfo> Disable() override { return Done("Disable"); }
   absl::StatusOr<CommandInfo> Home() override { return Done("Home"); }
   absl::StatusOr<CommandInfo> Move(const MotionCommand& cmd) override {
+    {
+      std::lock_guard lock(mu_);
+      ++moves_;
+    }
     return Done(KindName(cmd));
+  }
+  // Move calls that reached the drive.
+  int moves() const {
+    std::lock_guard lock(mu_);
+    return moves_;
   }
   absl::StatusOr<CommandInfo> AcknowledgeFault() override { return Done("AcknowledgeFault"); }
 
@@ -224,6 +239,7 @@ class FakeDrive final : public Drive {
     DriveStatus s;
     s.state = state_;
     s.sequence = sequence_;
+    s.health = health_;
     return s;
   }
   std::optional<CommandInfo> GetCommand(uint64_t) const override { return std::nullopt; }
@@ -250,6 +266,8 @@ class FakeDrive final : public Drive {
   std::optional<uint32_t> parameter_id_;
   int calls_ = 0;
   DriveState state_ = DriveState::kOffline;
+  std::optional<HealthInfo> health_;
+  int moves_ = 0;
   uint64_t sequence_ = 0;
   bool cyclic_ = false;
   FakeCyclicStream::Options cyclic_options_;

@@ -62,11 +62,19 @@ function update(c, s) {
   e.warnings.textContent = (s.warnings || []).join(', ');
   e.fault.textContent = s.fault ? `${s.fault.code} ${s.fault.text}` : '';
   // Link health (issue 8): refreshed with each snapshot the stream sends (only changed ones).
-  if (s.link) e.link.textContent = linkText(s.link);
+  if (s.link) e.link.textContent = linkText(s.link, s.health);
 }
 
-// "rt 1.2 ms · missed 0"; uint64 arrive as JSON strings, the round trip is absent when unknown.
-function linkText(l) {
+// "rt 1.2 ms · missed 0 · UP"; uint64 arrive as JSON strings, the round trip is absent when unknown.
+// Device health (decision 1431) follows: "· DOWN since 2026-12-07T05:12:03Z (3 consecutive
+// time-outs)"; UP shows the state only.
+function linkText(l, h) {
   const rt = l.last_round_trip_ms;
-  return `rt ${rt == null ? '–' : `${Number(rt).toFixed(1)} ms`} · missed ${l.missed ?? 0}`;
+  let text = `rt ${rt == null ? '–' : `${Number(rt).toFixed(1)} ms`} · missed ${l.missed ?? 0}`;
+  if (h?.state) {
+    text += ` · ${h.state}`;
+    if (h.state !== 'UP' && h.since) text += ` since ${h.since}`;
+    if (h.state !== 'UP' && h.reason) text += ` (${h.reason})`;
+  }
+  return text;
 }

@@ -131,6 +131,24 @@ class TestPeer : public SessionPeer {
     links_.push_back(s);
     cv_.notify_all();
   }
+  void OnHealthChange(const HealthInfo& h) noexcept override {
+    std::lock_guard lock(mu_);
+    if (health_.empty() || health_.back().state != h.state) health_.push_back(h);
+    cv_.notify_all();
+  }
+  bool WaitHealth(HealthState s) {
+    return WaitFor([&] { return !health_.empty() && health_.back().state == s; });
+  }
+  std::vector<HealthState> health_states() const {
+    std::lock_guard lock(mu_);
+    std::vector<HealthState> out;
+    for (const HealthInfo& h : health_) out.push_back(h.state);
+    return out;
+  }
+  HealthInfo last_health() const {
+    std::lock_guard lock(mu_);
+    return health_.empty() ? HealthInfo{} : health_.back();
+  }
 
   // Waits until `pred()` holds (checked under the lock after each callback) or kWait passes.
   bool WaitFor(const std::function<bool()>& pred) {
@@ -173,6 +191,7 @@ class TestPeer : public SessionPeer {
   uint32_t response_definition_ = kRespStatusWord | kRespStateVar;
   size_t built_ = 0, replies_ = 0, timeouts_ = 0;
   std::vector<LinkState> links_;
+  std::vector<HealthInfo> health_;  // one entry per state change
   Reply last_;
 };
 
@@ -365,6 +384,70 @@ TEST(Session, LinkLoss_OfflineAfterConsecutiveTimeouts_ThenRecovers) {
   ASSERT_TRUE(peer.WaitLink(LinkState::kOnline));
   EXPECT_THAT(peer.links(),
               ::testing::ElementsAre(LinkState::kOnline, LinkState::kOffline, LinkState::kOnline));
+}
+
+// Decision 1431: the shared model's states in order, DOWN exactly when the link goes OFFLINE.
+TEST(Session, Health_UpDemotedDownThenRecoveringUp) {
+  std::atomic<bool> answering{true};  // outlives the drive's thread
+  ScriptedDrive drive;
+  drive.SetResponder([&](const Request& r) {
+    if (!answering) return std::vector<Bytes>{};
+    return std::vector<Bytes>{ScriptedDrive::StandardReply(r, 0x0800)};
+  });
+  TestPeer peer;
+  auto session = OpenLoopback();
+  auto id = session->Register(Options(drive), &peer);
+  ASSERT_TRUE(id.ok());
+  ASSERT_TRUE(peer.WaitHealth(HealthState::kUp));
+  answering = false;
+  ASSERT_TRUE(peer.WaitHealth(HealthState::kDown));
+  EXPECT_EQ(peer.last_health().reason, "3 consecutive time-outs");
+  EXPECT_EQ(peer.last_health().consecutive_failures, 3u);
+  EXPECT_EQ(session->link_state(*id), LinkState::kOffline);
+  answering = true;
+  ASSERT_TRUE(peer.WaitHealth(HealthState::kUp));
+  EXPECT_THAT(peer.health_states(),
+              ::testing::ElementsAre(HealthState::kUp, HealthState::kDemoted, HealthState::kDown,
+                                     HealthState::kDemoted, HealthState::kUp));
+}
+
+// A DOWN drive is probed at its back-off, not every cycle (health.backoff_*_ms): counted as
+// telegrams per elapsed cycle periods, never timed.
+TEST(Session, Health_DownDriveProbedAtTheBackoffNotEveryCycle) {
+  ScriptedDrive drive;
+  drive.SetResponder([](const Request&) { return std::vector<Bytes>{}; });
+  TestPeer peer;
+  auto session = OpenLoopback();
+  PeerOptions o = Options(drive, 5ms);
+  o.reply_timeout = 10ms;
+  o.probe_backoff_min = o.probe_backoff_max = 200ms;
+  auto id = session->Register(o, &peer);
+  ASSERT_TRUE(id.ok());
+  ASSERT_TRUE(peer.WaitHealth(HealthState::kDown));
+  const ExchangeCounters before = *session->peer_counters(*id);
+  // Two more probes: at least 2 back-offs (400 ms = 80 cycles) pass meanwhile.
+  const size_t requests_before = drive.requests();
+  ASSERT_TRUE(peer.WaitFor([&] { return drive.requests() >= requests_before + 2; }));
+  const ExchangeCounters after = *session->peer_counters(*id);
+  const uint64_t telegrams = after.telegrams_sent - before.telegrams_sent;
+  const uint64_t cycles = after.cycles - before.cycles;
+  EXPECT_GE(telegrams, 2u);
+  // Every cycle would be 1 telegram per period; the back-off allows 1 per 40. Generous bound.
+  EXPECT_LE(telegrams * 10, cycles + 20) << telegrams << " telegrams in " << cycles << " cycles";
+}
+
+// Invalid health settings are refused at Register, naming the key.
+TEST(Session, Health_BackoffMinAboveMax_InvalidArgumentNamingKey) {
+  ScriptedDrive drive;
+  TestPeer peer;
+  auto session = OpenLoopback();
+  PeerOptions o = Options(drive);
+  o.probe_backoff_min = 300ms;
+  o.probe_backoff_max = 200ms;
+  auto id = session->Register(o, &peer);
+  ASSERT_EQ(id.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(id.status().message()),
+              ::testing::HasSubstr("drive 'x1'.health.backoff_min_ms: 300 is outside 0..200"));
 }
 
 TEST(Session, SilentFromStart_GoesOfflineFromUnknown) {

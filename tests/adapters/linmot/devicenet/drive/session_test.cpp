@@ -7,12 +7,14 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <thread>
 
 #include "adapters/core/clock.h"
 #include "adapters/linmot/devicenet/codec.h"
@@ -349,6 +351,105 @@ TEST(DnSession, Unregister_ReleasesTheConnectionSet) {
     (void)watcher->Receive(20ms);  // wakes on bus traffic (the release answer) or the time-out
   }
   EXPECT_FALSE(sim->Snapshot().stack.owner.has_value());
+}
+
+}  // namespace
+}  // namespace drivegw::linmot::devicenet
+
+namespace drivegw::linmot::devicenet {
+namespace {
+
+// Counts per drive on one bus (issue 11 "Device health", decision 1431).
+struct HealthPeer final : SessionPeer {
+  explicit HealthPeer(size_t consumed) : image(consumed, 0) {}
+  std::vector<uint8_t> BuildPollCommand() noexcept override { return image; }
+  void OnPollResponse(std::span<const uint8_t>, TimePoint) noexcept override {
+    std::lock_guard lock(mu);
+    ++responses;
+    cv.notify_all();
+  }
+  void OnLinkChange(LinkState, const std::string&) noexcept override {}
+  void OnHealthChange(const HealthInfo& h) noexcept override {
+    std::lock_guard lock(mu);
+    health = h;
+    cv.notify_all();
+  }
+  bool WaitHealth(HealthState s) {
+    std::unique_lock lock(mu);
+    return cv.wait_for(lock, kWait, [&] { return health.state == s; });
+  }
+  HealthInfo Health() {
+    std::lock_guard lock(mu);
+    return health;
+  }
+  int Responses() {
+    std::lock_guard lock(mu);
+    return responses;
+  }
+  std::vector<uint8_t> image;
+  std::mutex mu;
+  std::condition_variable cv;
+  int responses = 0;
+  HealthInfo health;
+};
+
+// Replies of each live drive in the best of three windows of `w` (a count; the window only
+// bounds it). The best of three: a loaded machine (ctest -j2 beside other suites) steals CPU in
+// some windows, a dead drive slowing the bus would lower all three.
+std::vector<int> RepliesIn(std::vector<HealthPeer*> peers, std::chrono::milliseconds w) {
+  std::vector<int> best(peers.size(), 0);
+  for (int round = 0; round < 3; ++round) {
+    std::vector<int> start;
+    for (HealthPeer* p : peers) start.push_back(p->Responses());
+    std::this_thread::sleep_for(w);  // the measurement window itself, not a wait for a condition
+    for (size_t i = 0; i < peers.size(); ++i) {
+      best[i] = std::max(best[i], peers[i]->Responses() - start[i]);
+    }
+  }
+  return best;
+}
+
+// Three drives on one CAN bus, one session; the third dies. It goes DOWN and is probed only at
+// the set-up back-off, and the two live ones keep their exchange rate (>= 80 % of their replies
+// in an equal window before the loss).
+TEST(DnSession, SharedBus_DeadDriveDownProbedAtBackoff_OthersKeepTheirRate) {
+  const uint16_t port = UniquePort();
+  auto sim5 = StartSim(port, 5);
+  auto sim6 = StartSim(port, 6);
+  auto sim7 = StartSim(port, 7);
+  ASSERT_TRUE(sim5 && sim6 && sim7);
+  auto session = Session::Open(Bus(port), FastSession(), SteadyClock::Instance());
+  ASSERT_TRUE(session.ok()) << session.status();
+  HealthPeer p5(6), p6(6), p7(6);
+  PeerOptions o7 = Peer(7);
+  o7.retry_min = 100ms;
+  o7.retry_max = 400ms;
+  auto id5 = (*session)->Register(Peer(5), &p5);
+  auto id6 = (*session)->Register(Peer(6), &p6);
+  auto id7 = (*session)->Register(o7, &p7);
+  ASSERT_TRUE(id5.ok() && id6.ok() && id7.ok());
+  for (HealthPeer* p : {&p5, &p6, &p7}) ASSERT_TRUE(p->WaitHealth(HealthState::kUp));
+
+  const std::vector<int> before = RepliesIn({&p5, &p6}, 500ms);
+  ASSERT_GT(before[0], 10);  // polls every 10 ms: far more than 10 in half a second, even loaded
+  ASSERT_GT(before[1], 10);
+
+  sim7->Stop();
+  ASSERT_TRUE(p7.WaitHealth(HealthState::kDown));
+  EXPECT_FALSE(p7.Health().reason.empty());
+  const uint64_t probes_before = (*session)->peer_counters(*id7)->explicit_requests;
+  const std::vector<int> after = RepliesIn({&p5, &p6}, 500ms);
+  const uint64_t probes = (*session)->peer_counters(*id7)->explicit_requests - probes_before;
+
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_GE(after[i] * 10, before[i] * 8)
+        << "drive " << (i + 5) << ": " << after[i] << " replies after, " << before[i] << " before";
+  }
+  // Set-up attempts of the dead drive over the three windows (1.5 s): at most one per back-off
+  // (>= 100 ms, doubling to 400 ms), each a Release and an Allocate at most: <= 2 x (1500 / 100
+  // + 1), where polling it like a live drive would be 150 requests.
+  EXPECT_LE(probes, 32u) << probes << " set-up requests to the dead drive in the window";
+  EXPECT_EQ(p7.Health().state, HealthState::kDown);
 }
 
 }  // namespace
