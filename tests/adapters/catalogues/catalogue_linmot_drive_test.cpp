@@ -18,6 +18,7 @@
 #include "sim/linmot/parameters.h"
 #include "sim/linmot/server.h"
 #include "sim/linmot_devicenet/server.h"
+#include "tests/support/linudp_bench.h"
 
 namespace drivegw {
 namespace {
@@ -34,28 +35,12 @@ DriveStatus WaitOnline(Drive& d) {
 }
 
 TEST(CatalogueAgainstDrive, LinMotUpidsTheSimulatorKnowsAreReadable) {
-  sim::linmot::SimOptions o;
-  o.bind = transport::Endpoint{transport::Endpoint::kLoopback, 0};
-  o.master_port = 0;
-  o.hw_test_time = 50ms;
+  sim::linmot::SimOptions o = test_support::LinUdpSimOptions();
   auto server = sim::linmot::LinMotServer::Start(o, SteadyClock::Instance());
   ASSERT_TRUE(server.ok()) << server.status();
-  DriveConfig c;
+  DriveConfig c = test_support::LinUdpDriveConfig((*server)->port());
   c.name = "cat-lm";
   c.family = linmot::linudp::kFamilyName;
-  c.axis.min_mm = 0;
-  c.axis.max_mm = 150;
-  c.axis.max_velocity_mm_s = 1000;
-  c.axis.max_acceleration_mm_s2 = 20000;
-  LinUdpConfig l;
-  l.host = "127.0.0.1";
-  l.port = (*server)->port();
-  l.bind_host = "127.0.0.1";
-  l.master_port = 0;
-  l.cycle = 2ms;
-  l.reply_timeout = 30ms;
-  l.lost_after_timeouts = 3;
-  c.linudp = l;
   auto drive = linmot::linudp::CreateLinMotUdpDrive(c, SteadyClock::Instance());
   ASSERT_TRUE(drive.ok()) << drive.status();
   ASSERT_TRUE((*drive)->Activate().ok());

@@ -15,6 +15,7 @@
 #include "nlohmann/json.hpp"
 #include "sim/linmot/server.h"
 #include "tests/storage/audit_fixture.h"
+#include "tests/support/linudp_bench.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::server {
@@ -124,29 +125,11 @@ class DriveEventRecorderTest : public storage::testing::AuditDbTest {
  protected:
   void SetUp() override {
     AuditDbTest::SetUp();
-    sim::linmot::SimOptions o;
-    o.bind = transport::Endpoint{transport::Endpoint::kLoopback, 0};
-    o.master_port = 0;
-    o.hw_test_time = 50ms;
+    sim::linmot::SimOptions o = test_support::LinUdpSimOptions();
     auto server = sim::linmot::LinMotServer::Start(o, SteadyClock::Instance());
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = std::move(*server);
-    DriveConfig c;
-    c.name = "x1";
-    c.family = "linmot";
-    c.axis.min_mm = 0;
-    c.axis.max_mm = 150;
-    c.axis.max_velocity_mm_s = 1000;
-    c.axis.max_acceleration_mm_s2 = 20000;
-    LinUdpConfig l;
-    l.host = "127.0.0.1";
-    l.port = server_->port();
-    l.bind_host = "127.0.0.1";
-    l.master_port = 0;
-    l.cycle = 2ms;
-    l.reply_timeout = 30ms;
-    l.lost_after_timeouts = 3;
-    c.linudp = l;
+    DriveConfig c = test_support::LinUdpDriveConfig(server_->port());
     auto drive = linmot::linudp::CreateLinMotUdpDrive(c, SteadyClock::Instance());
     ASSERT_TRUE(drive.ok()) << drive.status();
     drive_ = std::shared_ptr<Drive>(std::move(*drive));

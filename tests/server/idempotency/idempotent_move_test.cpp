@@ -20,6 +20,7 @@
 #include "server/grpc/drive_service_grpc.h"
 #include "server/grpc/worker_pool.h"
 #include "sim/linmot/server.h"
+#include "tests/support/linudp_bench.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::server {
@@ -31,29 +32,11 @@ using ::testing::HasSubstr;
 class IdempotentMoveTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    sim::linmot::SimOptions o;
-    o.bind = transport::Endpoint{transport::Endpoint::kLoopback, 0};
-    o.master_port = 0;
-    o.hw_test_time = 50ms;
+    sim::linmot::SimOptions o = test_support::LinUdpSimOptions();
     auto server = sim::linmot::LinMotServer::Start(o, SteadyClock::Instance());
     ASSERT_TRUE(server.ok()) << server.status();
     sim_ = std::move(*server);
-    DriveConfig c;
-    c.name = "x1";
-    c.family = "linmot";
-    c.axis.min_mm = 0;
-    c.axis.max_mm = 150;
-    c.axis.max_velocity_mm_s = 1000;
-    c.axis.max_acceleration_mm_s2 = 20000;
-    LinUdpConfig l;
-    l.host = "127.0.0.1";
-    l.port = sim_->port();
-    l.bind_host = "127.0.0.1";
-    l.master_port = 0;
-    l.cycle = 2ms;
-    l.reply_timeout = 30ms;
-    l.lost_after_timeouts = 3;
-    c.linudp = l;
+    DriveConfig c = test_support::LinUdpDriveConfig(sim_->port());
     auto drive = linmot::linudp::CreateLinMotUdpDrive(c, SteadyClock::Instance());
     ASSERT_TRUE(drive.ok()) << drive.status();
     drive_ = std::shared_ptr<Drive>(std::move(*drive));

@@ -16,6 +16,7 @@
 #include "adapters/linmot/mc/error_codes.h"
 #include "sim/linmot/device.h"
 #include "sim/linmot/server.h"
+#include "tests/support/linudp_bench.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::linmot::linudp {
@@ -53,29 +54,15 @@ class LinMotUdpDriveCurvesTest : public ::testing::Test {
 
   void SetUp() override {
     SimOptions o = Options();
-    o.bind = transport::Endpoint{transport::Endpoint::kLoopback, 0};
-    o.master_port = 0;
-    o.hw_test_time = 50ms;
+    const SimOptions bench = test_support::LinUdpSimOptions();
+    o.bind = bench.bind;
+    o.master_port = bench.master_port;
+    o.hw_test_time = bench.hw_test_time;
     auto server = LinMotServer::Start(o, SteadyClock::Instance());
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = std::move(*server);
 
-    DriveConfig config;
-    config.name = "x1";
-    config.family = "linmot";
-    config.axis.min_mm = 0;
-    config.axis.max_mm = 150;
-    config.axis.max_velocity_mm_s = 1000;
-    config.axis.max_acceleration_mm_s2 = 20000;
-    LinUdpConfig l;
-    l.host = "127.0.0.1";
-    l.port = server_->port();
-    l.bind_host = "127.0.0.1";
-    l.master_port = 0;
-    l.cycle = 2ms;
-    l.reply_timeout = 30ms;
-    l.lost_after_timeouts = 3;
-    config.linudp = l;
+    DriveConfig config = test_support::LinUdpDriveConfig(server_->port());
     auto drive = CreateLinMotUdpDrive(config, SteadyClock::Instance());
     ASSERT_TRUE(drive.ok()) << drive.status();
     drive_ = std::move(*drive);

@@ -19,6 +19,7 @@
 #include "adapters/linmot/linudp/factory.h"
 #include "adapters/linmot/mc/error_codes.h"
 #include "sim/linmot/server.h"
+#include "tests/support/linudp_bench.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::linmot::linudp {
@@ -33,30 +34,12 @@ constexpr auto kWait = 20s;  // generous: the host runs at load 6-10
 class LinUdpRecoveryTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    SimOptions o;
-    o.bind = transport::Endpoint{transport::Endpoint::kLoopback, 0};
-    o.master_port = 0;
-    o.hw_test_time = 50ms;
+    SimOptions o = test_support::LinUdpSimOptions();
     o.boot_time = 300ms;
     auto server = LinMotServer::Start(o, SteadyClock::Instance());
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = std::move(*server);
-    DriveConfig c;
-    c.name = "x1";
-    c.family = "linmot";
-    c.axis.min_mm = 0;
-    c.axis.max_mm = 150;
-    c.axis.max_velocity_mm_s = 1000;
-    c.axis.max_acceleration_mm_s2 = 20000;
-    LinUdpConfig l;
-    l.host = "127.0.0.1";
-    l.port = server_->port();
-    l.bind_host = "127.0.0.1";
-    l.master_port = 0;
-    l.cycle = 2ms;
-    l.reply_timeout = 30ms;
-    l.lost_after_timeouts = 3;
-    c.linudp = l;
+    DriveConfig c = test_support::LinUdpDriveConfig(server_->port());
     auto drive = CreateLinMotUdpDrive(c, SteadyClock::Instance());
     ASSERT_TRUE(drive.ok()) << drive.status();
     drive_ = std::move(*drive);

@@ -17,6 +17,7 @@
 #include "adapters/linmot/mc/warn_word.h"
 #include "sim/linmot/parameters.h"
 #include "sim/linmot/server.h"
+#include "tests/support/linudp_bench.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::linmot::linudp {
@@ -68,29 +69,18 @@ class LinMotUdpDriveTest : public ::testing::Test {
  protected:
   void SetUp() override { Start(SimOptions{}); }
 
+  // `o`: the test's own simulator settings; the bench's loopback ports and short power-up
+  // replace its bind, master_port and hw_test_time.
   void Start(SimOptions o) {
-    o.bind = transport::Endpoint{transport::Endpoint::kLoopback, 0};
-    o.master_port = 0;  // answer the gateway's ephemeral port
-    o.hw_test_time = 50ms;
+    const SimOptions bench = test_support::LinUdpSimOptions();
+    o.bind = bench.bind;
+    o.master_port = bench.master_port;
+    o.hw_test_time = bench.hw_test_time;
     auto server = LinMotServer::Start(o, SteadyClock::Instance());
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = std::move(*server);
 
-    config_.name = "x1";
-    config_.family = "linmot";
-    config_.axis.min_mm = 0;
-    config_.axis.max_mm = 150;
-    config_.axis.max_velocity_mm_s = 1000;
-    config_.axis.max_acceleration_mm_s2 = 20000;
-    LinUdpConfig l;
-    l.host = "127.0.0.1";
-    l.port = server_->port();
-    l.bind_host = "127.0.0.1";
-    l.master_port = 0;
-    l.cycle = 2ms;
-    l.reply_timeout = 30ms;
-    l.lost_after_timeouts = 3;
-    config_.linudp = l;
+    config_ = test_support::LinUdpDriveConfig(server_->port());
     auto drive = CreateLinMotUdpDrive(config_, SteadyClock::Instance());
     ASSERT_TRUE(drive.ok()) << drive.status();
     drive_ = std::move(*drive);

@@ -21,6 +21,7 @@
 #include "adapters/transport/impaired_link.h"
 #include "sim/linmot/device.h"
 #include "sim/linmot/server.h"
+#include "tests/support/linudp_bench.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::linmot::linudp {
@@ -36,33 +37,16 @@ constexpr double kIncPerMm = 10000;  // 0.1 um
 class LinUdpFaultTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    SimOptions o;
-    o.bind = transport::Endpoint{transport::Endpoint::kLoopback, 0};
-    o.master_port = 0;
-    o.hw_test_time = 50ms;
+    SimOptions o = test_support::LinUdpSimOptions();
     auto server = LinMotServer::Start(o, SteadyClock::Instance());
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = std::move(*server);
 
-    DriveConfig c;
-    c.name = "x1";
-    c.family = "linmot";
-    c.axis.min_mm = 0;
-    c.axis.max_mm = 150;
-    c.axis.max_velocity_mm_s = 1000;
-    c.axis.max_acceleration_mm_s2 = 20000;
-    LinUdpConfig l;
-    l.host = "127.0.0.1";
-    l.port = server_->port();
-    l.bind_host = "127.0.0.1";
-    l.master_port = 0;
-    l.cycle = 2ms;
-    l.reply_timeout = 30ms;
+    DriveConfig c = test_support::LinUdpDriveConfig(server_->port());
     // 10 % loss each way loses ~19 % of the exchanges; 3 consecutive misses (the default test
     // value) would then take the link down every few hundred cycles. A test bench for lossy
     // links raises the count; 10 in a row happens with p = 0.19^10 ~ 6e-8 per cycle.
-    l.lost_after_timeouts = 10;
-    c.linudp = l;
+    c.linudp->lost_after_timeouts = 10;
     // Acceptance (the count echo, D-11): each lost exchange costs a 30 ms reply time-out, so the
     // default 100 ms fails a move after three in a row (seen under load: "not accepted within
     // 100 ms (count 1, echo 0)"); a lossy bench raises it (decision 1422).
