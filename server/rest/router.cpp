@@ -976,17 +976,26 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
 
   // 4. If-Match (RFC 9110 §13.1.1) as the request's `etag` when nothing else set it; the
   // entity tag's quotes and a weak "W/" prefix are dropped (our etags are opaque strings).
+  // "*" matches any current representation: no etag check. An empty tag ("" or W/"") is refused:
+  // an empty etag means "unconditional" to the services, the opposite of what the client asked.
   if (!request.if_match.empty()) {
     const auto* etag = input->FindFieldByName("etag");
     if (etag != nullptr && !etag->is_repeated() &&
         etag->type() == pb::FieldDescriptor::TYPE_STRING &&
         msg->GetReflection()->GetString(*msg, etag).empty()) {
       absl::string_view tag = absl::StripAsciiWhitespace(Av(request.if_match));
-      absl::ConsumePrefix(&tag, "W/");
-      if (tag.size() >= 2 && tag.front() == '"' && tag.back() == '"') {
-        tag = tag.substr(1, tag.size() - 2);
+      if (tag != "*") {
+        absl::ConsumePrefix(&tag, "W/");
+        if (tag.size() >= 2 && tag.front() == '"' && tag.back() == '"') {
+          tag = tag.substr(1, tag.size() - 2);
+        }
+        if (tag.empty()) {
+          bad_request("If-Match",
+                      "empty entity tag (send the etag the resource was read with, or *)", "etag");
+          return;
+        }
+        msg->GetReflection()->SetString(msg.get(), etag, std::string(tag));
       }
-      msg->GetReflection()->SetString(msg.get(), etag, std::string(tag));
     }
   }
 

@@ -150,6 +150,20 @@ TEST_F(ParameterSetsE2eTest, Rest_CreateApplyDryRunAndRealGetOperationAudited) {
     return r ? r->status : 0;
   };
   EXPECT_EQ(del(etag), 412);
+  // Malformed or empty tags never delete: an unbalanced quote or a list is an opaque tag that
+  // matches nothing (412); an empty one is refused (400), it would read as "unconditional".
+  auto del_raw = [&](const std::string& value) {
+    rest::test_support::HttpClient client(static_cast<uint16_t>(http()));
+    EXPECT_TRUE(client.SendRequest("DELETE", "/v1/parameterSets/feeder-slow", "",
+                                   "If-Match: " + value + "\r\n"));
+    auto r = client.Read();
+    return r ? r->status : 0;
+  };
+  EXPECT_EQ(del_raw("\"abc"), 412);
+  EXPECT_EQ(del_raw("\"a\", \"b\""), 412);
+  EXPECT_EQ(del_raw("\"\""), 400);
+  EXPECT_EQ(del_raw("W/\"\""), 400);
+  EXPECT_EQ(HttpRequest(http(), "GET", "/v1/parameterSets/feeder-slow").status, 200);
   EXPECT_EQ(del(Field(ok.body, "etag")), 200);
   EXPECT_EQ(HttpRequest(http(), "GET", "/v1/parameterSets/feeder-slow").status, 404);
 
@@ -183,7 +197,9 @@ TEST_F(ParameterSetsE2eTest, Rest_CreateApplyDryRunAndRealGetOperationAudited) {
   EXPECT_EQ(count("ApplyParameterSet"), 2u);
   EXPECT_EQ(count("ApplyParameterSet.done"), 2u);
   EXPECT_EQ(count("ImportParameterSet"), 1u);
-  EXPECT_EQ(count("DeleteParameterSet"), 2u);
+  // Three refused with 412 (one stale, two malformed tags) and the one that deleted; the two
+  // empty tags were refused by the REST front end before any call, so they are not audited.
+  EXPECT_EQ(count("DeleteParameterSet"), 4u);
 }
 
 TEST_F(ParameterSetsE2eTest, Grpc_CaptureFromDriveThenStaleEtagIsFailedPreconditionWithEtagDetail) {
