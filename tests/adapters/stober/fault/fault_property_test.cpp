@@ -24,6 +24,7 @@
 #include "adapters/stober/param_id.h"
 #include "adapters/transport/impaired_can_channel.h"
 #include "sim/stober/server.h"
+#include "tests/support/lossy_link.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::stober {
@@ -111,16 +112,7 @@ class StoberFaultTest : public ::testing::Test {
     return p;
   }
 
-  void EnableUnderLoss() {
-    for (int attempt = 0; attempt < 5; ++attempt) {
-      auto r = drive_->Enable();
-      if (r.ok() && r->state == CommandState::kDone) return;
-      std::printf("enable attempt %d: %s\n", attempt,
-                  r.ok() ? r->message.c_str() : std::string(r.status().message()).c_str());
-      WaitOnline();
-    }
-    FAIL() << "Enable never reached DONE";
-  }
+  void EnableUnderLoss() { ASSERT_TRUE(test_support::EnableUnderLoss(*drive_, kWait)); }
 
   CommandState RunMove(const MotionCommand& cmd, double target_mm) {
     auto r = drive_->Move(cmd);

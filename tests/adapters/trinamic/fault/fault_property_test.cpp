@@ -28,6 +28,7 @@
 #include "adapters/trinamic/drive.h"
 #include "adapters/trinamic/factory.h"
 #include "sim/trinamic/server.h"
+#include "tests/support/lossy_link.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::trinamic {
@@ -108,16 +109,7 @@ class TrinamicFaultTest : public ::testing::Test {
     server_->WithController([&](Controller& c) { p = c.state(0).position; });
     return p;
   }
-  void EnableUnderLoss() {
-    for (int attempt = 0; attempt < 5; ++attempt) {
-      auto r = drive_->Enable();
-      if (r.ok() && r->state == CommandState::kDone) return;
-      std::printf("enable attempt %d: %s\n", attempt,
-                  r.ok() ? r->message.c_str() : std::string(r.status().message()).c_str());
-      WaitOnline();
-    }
-    FAIL() << "Enable never reached DONE";
-  }
+  void EnableUnderLoss() { ASSERT_TRUE(test_support::EnableUnderLoss(*drive_, kWait)); }
   CommandState RunMove(const MotionCommand& cmd, int32_t target) {
     auto r = drive_->Move(cmd);
     if (!r.ok()) {

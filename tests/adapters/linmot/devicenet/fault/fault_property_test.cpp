@@ -26,6 +26,7 @@
 #include "adapters/transport/impaired_can_channel.h"
 #include "sim/linmot_devicenet/device.h"
 #include "sim/linmot_devicenet/server.h"
+#include "tests/support/lossy_link.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::linmot::devicenet {
@@ -110,17 +111,7 @@ class DnFaultTest : public ::testing::Test {
     return out;
   }
 
-  void EnableUnderLoss() {
-    for (int attempt = 0; attempt < 5; ++attempt) {
-      auto r = drive_->Enable();
-      if (r.ok() && r->state == CommandState::kDone) return;
-      std::printf("enable attempt %d: %s\n", attempt,
-                  r.ok() ? r->message.c_str() : std::string(r.status().message()).c_str());
-      test_support::WaitStatus(
-          *drive_, [](const DriveStatus& s) { return s.state != DriveState::kOffline; }, kWait);
-    }
-    FAIL() << "Enable never reached DONE";
-  }
+  void EnableUnderLoss() { ASSERT_TRUE(test_support::EnableUnderLoss(*drive_, kWait)); }
 
   // Runs one move to its end; asserts (b) when it ends DONE. Returns the final state (kBusy when
   // the drive refused the call).

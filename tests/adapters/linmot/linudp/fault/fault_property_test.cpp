@@ -22,6 +22,7 @@
 #include "sim/linmot/device.h"
 #include "sim/linmot/server.h"
 #include "tests/support/linudp_bench.h"
+#include "tests/support/lossy_link.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::linmot::linudp {
@@ -69,15 +70,7 @@ class LinUdpFaultTest : public ::testing::Test {
 
   // Enables; under loss a call may time out, so it is repeated like a client would (Enable is
   // idempotent: it moves no axis).
-  void EnableUnderLoss() {
-    for (int attempt = 0; attempt < 5; ++attempt) {
-      auto r = drive_->Enable();
-      if (r.ok() && r->state == CommandState::kDone) return;
-      std::printf("enable attempt %d: %s\n", attempt,
-                  r.ok() ? r->message.c_str() : std::string(r.status().message()).c_str());
-    }
-    FAIL() << "Enable never reached DONE";
-  }
+  void EnableUnderLoss() { ASSERT_TRUE(test_support::EnableUnderLoss(*drive_, kWait)); }
 
   // One move; returns the absolute target the simulator must have started exactly once when the
   // move was accepted, nullopt when the drive refused it (then it must not have started).
