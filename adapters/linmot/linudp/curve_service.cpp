@@ -120,6 +120,14 @@ absl::StatusOr<WireCurve> CurveService::Upload(uint16_t curve_id) {
     return absl::DataLossError(
         absl::StrFormat("drive '%s': curve %d: %s", drive_, curve_id, block.status().message()));
   }
+  // The info block carries its own curve ID (@30, linmot-linudp.md curve info block): a block
+  // of another curve than the one asked for is a drive- or transfer-side mix-up, never a curve
+  // to hand on under the requested ID.
+  if (block->curve_id != curve_id) {
+    return absl::DataLossError(
+        absl::StrFormat("drive '%s': curve %d: the drive returned the info block of curve %d",
+                        drive_, curve_id, block->curve_id));
+  }
   if (r.word4 != 0 && r.word4 != block->point_count * kCurvePointSize) {
     return absl::DataLossError(absl::StrFormat(
         "drive '%s': curve %d: data block of %d bytes, the info block counts %d points", drive_,

@@ -186,6 +186,16 @@ TEST_F(CurveServiceTest, SizeError_NamesTheStepAndCurve) {
   EXPECT_THAT(s.message(), HasSubstr("RTC status 0xD1"));
 }
 
+TEST_F(CurveServiceTest, Upload_InfoBlockOfAnotherCurve_DataLossNamingBoth) {
+  ASSERT_TRUE(Service().Download(Wire()).ok());
+  drive_.stored[7] = drive_.stored[12];  // slot 7 answers with curve 12's info block
+  auto up = Service().Upload(7);
+  EXPECT_EQ(up.status().code(), absl::StatusCode::kDataLoss) << up.status();
+  EXPECT_THAT(up.status().message(),
+              HasSubstr("curve 7: the drive returned the info block of curve 12"));
+  EXPECT_TRUE(Service().Upload(12).ok());
+}
+
 TEST_F(CurveServiceTest, Upload_Absent_NotFound) {
   auto up = Service().Upload(3);
   EXPECT_EQ(up.status().code(), absl::StatusCode::kNotFound);
