@@ -26,6 +26,11 @@ inline std::string ReadWholeFile(const std::string& path) {
   return s.str();
 }
 
+// The last `n` characters of `text` (a process log in a failure message).
+inline std::string Tail(const std::string& text, size_t n = 3000) {
+  return text.size() <= n ? text : "..." + text.substr(text.size() - n);
+}
+
 class ChildProcess {
  public:
   ChildProcess(std::vector<std::string> argv, std::string log) : log_(std::move(log)) {
@@ -72,6 +77,13 @@ class ChildProcess {
     exited_ = true;
   }
   std::string log() const { return ReadWholeFile(log_); }
+  // Running or how it exited, and the end of its output: for failure messages.
+  std::string Describe() {
+    const bool running = Running();
+    return (running ? std::string("running")
+                    : "exited (wait status " + std::to_string(exit_status_) + ")") +
+           "; output:\n" + Tail(log());
+  }
 
  private:
   std::string log_;

@@ -31,6 +31,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/e2e/child_process.h"
 #include "tests/e2e/http_client.h"
 
 extern char** environ;
@@ -59,72 +60,9 @@ std::string FindBinary(const char* env, const char* name, const char* built) {
   return built;
 }
 
-std::string ReadFile(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string Tail(const std::string& text, size_t n = 3000) {
-  return text.size() <= n ? text : "..." + text.substr(text.size() - n);
-}
-
-// A child process with stdout and stderr in `log`; SIGTERM, then SIGKILL, when destroyed.
-class Process {
- public:
-  Process(std::vector<std::string> argv, std::string log) : log_(std::move(log)) {
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&fa, 1, 2);
-    std::vector<char*> args;
-    for (auto& a : argv) args.push_back(a.data());
-    args.push_back(nullptr);
-    error_ = posix_spawn(&pid_, args[0], &fa, nullptr, args.data(), environ);
-    posix_spawn_file_actions_destroy(&fa);
-    if (error_ != 0) pid_ = -1;
-  }
-  ~Process() {
-    if (!Running()) return;
-    ::kill(pid_, SIGTERM);
-    const auto deadline = Clock::now() + 10s;
-    while (Running() && Clock::now() < deadline) std::this_thread::sleep_for(10ms);
-    if (Running()) {
-      ::kill(pid_, SIGKILL);
-      ::waitpid(pid_, nullptr, 0);
-    }
-  }
-  Process(const Process&) = delete;
-  Process& operator=(const Process&) = delete;
-
-  bool started() const { return pid_ > 0; }
-  int spawn_error() const { return error_; }
-  bool Running() {
-    if (pid_ <= 0 || exited_) return false;
-    int status = 0;
-    if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-      exited_ = true;
-      exit_status_ = status;
-      return false;
-    }
-    return true;
-  }
-  std::string log() const { return ReadFile(log_); }
-  std::string Describe() {
-    const bool running = Running();
-    return (running ? std::string("running")
-                    : "exited (wait status " + std::to_string(exit_status_) + ")") +
-           "; output:\n" + Tail(log());
-  }
-
- private:
-  std::string log_;
-  pid_t pid_ = -1;
-  int error_ = 0;
-  bool exited_ = false;
-  int exit_status_ = 0;
-};
+using test_support::ChildProcess;
+using test_support::Tail;
+std::string ReadFile(const std::string& path) { return test_support::ReadWholeFile(path); }
 
 // Polls `pred` every 20 ms until it holds, `timeout` passes or `alive` (when given) turns false.
 bool Eventually(const std::function<bool()>& pred, std::chrono::milliseconds timeout,
@@ -188,9 +126,10 @@ class StoberProcessTest : public ::testing::TestWithParam<int> {
     const std::string gateway = FindBinary("DGW_DRIVEGW", "drivegw", DGW_GATEWAY_BIN);
     std::cout << "bus " << bus_.name << "; " << sim << "; " << gateway << std::endl;
 
-    sim_ = std::make_unique<Process>(std::vector<std::string>{sim, "stober", "--can", bus_.sim_spec,
-                                                              "--node", std::to_string(kNode)},
-                                     dir_ + "/sim.log");
+    sim_ = std::make_unique<ChildProcess>(
+        std::vector<std::string>{sim, "stober", "--can", bus_.sim_spec, "--node",
+                                 std::to_string(kNode)},
+        dir_ + "/sim.log");
     ASSERT_TRUE(sim_->started()) << sim << ": posix_spawn error " << sim_->spawn_error();
     ASSERT_TRUE(Eventually([&] { return sim_->log().find("stober node") != std::string::npos; },
                            kDeadline, [&] { return sim_->Running(); }))
@@ -212,8 +151,8 @@ class StoberProcessTest : public ::testing::TestWithParam<int> {
                           << "    timeouts: {request_ms: 10000, accept_ms: 2000}\n"
                           << "    axis: {min_mm: -10000, max_mm: 10000, max_velocity_mm_s: 1000, "
                           << "max_acceleration_mm_s2: 10000}\n";
-    gateway_ = std::make_unique<Process>(std::vector<std::string>{gateway, "--config", config},
-                                         dir_ + "/drivegw.log");
+    gateway_ = std::make_unique<ChildProcess>(std::vector<std::string>{gateway, "--config", config},
+                                              dir_ + "/drivegw.log");
     ASSERT_TRUE(gateway_->started())
         << gateway << ": posix_spawn error " << gateway_->spawn_error();
     // "drivegw: gRPC on :P, HTTP on :Q — Ctrl-C stops" (server/main.cpp).
@@ -271,8 +210,8 @@ class StoberProcessTest : public ::testing::TestWithParam<int> {
 
   std::string dir_;
   Bus bus_;
-  std::unique_ptr<Process> sim_;
-  std::unique_ptr<Process> gateway_;
+  std::unique_ptr<ChildProcess> sim_;
+  std::unique_ptr<ChildProcess> gateway_;
   int http_port_ = 0;
   std::string last_body_;
 };
