@@ -13,7 +13,7 @@ export CCACHE_DIR=${CCACHE_DIR:-$HOME/.cache/ccache}
 # Fresh clones in other directories (CI) still hit the cache: paths are hashed relative.
 export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$PWD}
 export CCACHE_NOHASHDIR=true
-export CCACHE_MAXSIZE=${CCACHE_MAXSIZE:-5G}
+export CCACHE_MAXSIZE=${CCACHE_MAXSIZE:-12G}
 if [ ! -f "$BUILD_DIR/build.ninja" ]; then
   # CMAKE_ARGS: extra cache settings, e.g. -DDGW_TESTS=OFF (docker/Dockerfile).
   # shellcheck disable=SC2086
