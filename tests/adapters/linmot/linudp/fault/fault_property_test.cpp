@@ -114,12 +114,16 @@ TEST_F(LinUdpFaultTest, TenPercentLossBothWays_NoUnrequestedMotion_NoFalseDone_R
                                    .duplicate_probability = 0.05,
                                    .reorder_probability = 0.05,
                                    .seed = 7};
-  // No reordering of requests: a stale telegram delivered after a newer one carries the older
-  // command count, and the drive executes every count change (linmot-mc.md §4.3), so it runs the
-  // old command and then the current one again — a relative move moves further (finding,
-  // observed as targets 30, 30, 30.045 mm for one requested 30 mm move; decision 1424).
-  const transport::Impairment request_loss{
-      .drop_probability = 0.1, .duplicate_probability = 0.05, .seed = 8};
+  // Requests are reordered too: a stale telegram delivered after a newer one used to carry the
+  // older command count, and the drive executes every count change (linmot-mc.md §4.3), so it
+  // ran the old command and then the current one again (targets 30, 30, 30.045 mm for one
+  // requested 30 mm move, decision 1424). Since decision 1461 a block travels only until its
+  // count is echoed, so a telegram the simulator holds back (it delivers it right after the
+  // next one) can no longer carry a superseded command; seed 8 is the run of finding 1424.
+  const transport::Impairment request_loss{.drop_probability = 0.1,
+                                           .duplicate_probability = 0.05,
+                                           .reorder_probability = 0.05,
+                                           .seed = 8};
   std::printf("replies: %s; requests: %s\n", transport::ImpairmentString(loss).c_str(),
               transport::ImpairmentString(request_loss).c_str());
   ASSERT_TRUE(server_->SetImpairment(loss).ok());
@@ -161,7 +165,10 @@ TEST_F(LinUdpFaultTest, TenPercentLossBothWays_NoUnrequestedMotion_NoFalseDone_R
   EXPECT_GT(sc.requests_dropped, 0u);  // the faults really happened
   EXPECT_GT(sc.replies_dropped, 0u);
   EXPECT_GT(sc.requests_duplicated, 0u);
+  EXPECT_GT(sc.requests_reordered, 0u);
   EXPECT_GT(ec->timeouts, 0u);
+  // No stale command ran, so the guard never had to halt the axis (decision 1461).
+  EXPECT_EQ(Udp().stale_motion_commands(), 0u);
 
   // (c) the loss stops: online again and a new move completes.
   ASSERT_TRUE(server_->SetImpairment(transport::Impairment{}).ok());
