@@ -1082,16 +1082,17 @@ absl::StatusOr<LinMotUdpDrive::MotionTracker> LinMotUdpDrive::StartMotionLocked(
     return absl::UnavailableError(absl::StrCat("drive '", name_, "': ", kind, ": no reply from ",
                                                endpoint(), " (link ", ToString(link_), ")"));
   }
+  // Decision 1461: halted by the gateway (state 12) until acknowledged.
+  if (stale_fault_) {
+    return absl::FailedPreconditionError(absl::StrCat("drive '", name_, "': ", kind,
+                                                      ": drive is in FAULT (", *stale_fault_,
+                                                      "); AcknowledgeFault first"));
+  }
   // D-36: outside state 8 the drive would raise 0086h (or ignore the command): refuse here.
   if (MainStateLocked() != kState(MainState::kOperationEnabled)) {
     return absl::FailedPreconditionError(
         absl::StrCat("drive '", name_, "': ", kind,
                      " needs main state 8 (Operation Enabled), drive is in ", StateTextLocked()));
-  }
-  if (stale_fault_) {
-    return absl::FailedPreconditionError(absl::StrCat("drive '", name_, "': ", kind,
-                                                      ": drive is in FAULT (", *stale_fault_,
-                                                      "); AcknowledgeFault first"));
   }
   // D-09 / A-08: next count of the 1..15 ring, seeded from the echo.
   const uint8_t count = mc::NextCount(sample_.state_var.count_echo());

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <cstdio>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -211,6 +212,7 @@ TEST_F(LinUdpStaleTest, MotionBlockDeliveredAfterNewerMove_HaltedFaultedCounted)
   ASSERT_TRUE(WaitFor([&] { return !Sim().motion_active; }));
   EXPECT_EQ(Sim().main_state, 12);
   EXPECT_LT(Sim().actual_position_mm, 20);
+  std::printf("stale move from 10 mm towards 50 mm halted at %.3f mm\n", Sim().actual_position_mm);
   const DriveStatus st = test_support::WaitStatus(
       *drive_, [](const DriveStatus& s) { return s.state == DriveState::kFault; }, kWait);
   ASSERT_EQ(st.state, DriveState::kFault);
