@@ -127,12 +127,7 @@ class LinUdpStaleTest : public ::testing::Test {
   }
   const LinMotUdpDrive& Udp() const { return dynamic_cast<const LinMotUdpDrive&>(*drive_); }
   static bool WaitFor(const std::function<bool()>& pred) {
-    const auto deadline = std::chrono::steady_clock::now() + kWait;
-    while (!pred()) {
-      if (std::chrono::steady_clock::now() > deadline) return false;
-      std::this_thread::sleep_for(2ms);
-    }
-    return true;
+    return test_support::WaitFor(pred, kWait);
   }
   // Moves and waits for DONE, the simulator standing at `target_mm`.
   void MoveDone(const MotionCommand& cmd, double target_mm) {

@@ -4,10 +4,24 @@
 
 #include <gtest/gtest.h>
 
+#include <initializer_list>
+
 namespace drivegw::linmot::linudp {
 namespace {
 
 using V = McCountGuard::Verdict;
+
+// A guard through which `counts` were sent and echoed in order, from a drive showing 0.
+McCountGuard Accepted(std::initializer_list<uint8_t> counts) {
+  McCountGuard g;
+  uint8_t echo = 0;
+  for (const uint8_t c : counts) {
+    g.Arm(c, echo);
+    EXPECT_EQ(g.OnEcho(c), V::kEcho);
+    echo = c;
+  }
+  return g;
+}
 
 TEST(McCountGuard, NothingArmed_NoVerdict) {
   McCountGuard g;
@@ -26,11 +40,7 @@ TEST(McCountGuard, PreviousCountUntilEchoed_NotStale_ThenEcho) {
 }
 
 TEST(McCountGuard, EchoBackToSupersededCount_Stale_ThenAdopted) {
-  McCountGuard g;
-  g.Arm(1, 0);
-  EXPECT_EQ(g.OnEcho(1), V::kEcho);
-  g.Arm(2, 1);
-  EXPECT_EQ(g.OnEcho(2), V::kEcho);
+  McCountGuard g = Accepted({1, 2});
   EXPECT_EQ(g.OnEcho(1), V::kStale);
   EXPECT_EQ(g.current(), 1);
   EXPECT_EQ(g.OnEcho(1), V::kEcho);   // the same state again: not reported twice
@@ -38,11 +48,7 @@ TEST(McCountGuard, EchoBackToSupersededCount_Stale_ThenAdopted) {
 }
 
 TEST(McCountGuard, OlderCountWhilePending_Stale) {
-  McCountGuard g;
-  g.Arm(1, 0);
-  EXPECT_EQ(g.OnEcho(1), V::kEcho);
-  g.Arm(2, 1);
-  EXPECT_EQ(g.OnEcho(2), V::kEcho);
+  McCountGuard g = Accepted({1, 2});
   g.Arm(3, 2);
   EXPECT_EQ(g.OnEcho(1), V::kStale);  // neither what the drive showed (2) nor the new count (3)
 }
@@ -55,9 +61,7 @@ TEST(McCountGuard, UnknownBaseWhilePending_NotJudged) {
 }
 
 TEST(McCountGuard, EchoZeroAfterReboot_NeverStale) {
-  McCountGuard g;
-  g.Arm(1, 0);
-  EXPECT_EQ(g.OnEcho(1), V::kEcho);
+  McCountGuard g = Accepted({1});
   EXPECT_EQ(g.OnEcho(0), V::kNone);
 }
 
@@ -70,25 +74,14 @@ TEST(McCountGuard, CountNeverOurs_NotStale) {
 }
 
 TEST(McCountGuard, ReusedCountAfterWrap_LiveAgain) {
-  McCountGuard g;
-  uint8_t echo = 0;
-  for (int i = 0; i < 15; ++i) {
-    const uint8_t c = static_cast<uint8_t>(echo >= 15 ? 1 : echo + 1);
-    g.Arm(c, echo);
-    ASSERT_EQ(g.OnEcho(c), V::kEcho);
-    echo = c;
-  }
+  McCountGuard g = Accepted({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15});  // the ring
   g.Arm(1, 15);  // count 1 again: live, not superseded
   EXPECT_EQ(g.OnEcho(1), V::kEcho);
   EXPECT_EQ(g.OnEcho(15), V::kStale);
 }
 
 TEST(McCountGuard, Reset_ForgetsEverything) {
-  McCountGuard g;
-  g.Arm(1, 0);
-  g.OnEcho(1);
-  g.Arm(2, 1);
-  g.OnEcho(2);
+  McCountGuard g = Accepted({1, 2});
   g.Reset();
   EXPECT_FALSE(g.current().has_value());
   EXPECT_EQ(g.OnEcho(1), V::kNone);
