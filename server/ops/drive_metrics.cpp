@@ -55,6 +55,8 @@ void CollectLinUdp(const linmot::linudp::LinMotUdpDrive& d, Out& o) {
   o.Error("malformed", c->malformed);
   o.Error("late", c->late);
   o.Error("header_mismatch", c->header_mismatch);
+  // Decision 1461: a reordered telegram re-executed a superseded motion command.
+  o.Error("stale_motion", d.stale_motion_commands());
 }
 
 void CollectDeviceNet(const linmot::devicenet::LinMotDnDrive& d, Out& o) {

@@ -5,6 +5,8 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
+#include <thread>
 
 #include "adapters/core/drive_config.h"
 #include "adapters/transport/endpoint.h"
@@ -42,6 +44,17 @@ inline DriveConfig LinUdpDriveConfig(uint16_t sim_port) {
   l.lost_after_timeouts = 3;
   c.linudp = l;
   return c;
+}
+
+// Polls `pred` every 2 ms until it holds (true) or `wait` has passed (false): for conditions on
+// the simulator's own record, which publishes no status to wait on.
+inline bool WaitFor(const std::function<bool()>& pred, std::chrono::steady_clock::duration wait) {
+  const auto deadline = std::chrono::steady_clock::now() + wait;
+  while (!pred()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
 }
 
 }  // namespace drivegw::test_support

@@ -35,6 +35,12 @@ bool IsPowerOff(uint8_t ms) { return ms <= kState(MainState::kError); }
 
 // Heartbeat: an unchanged status is republished at least this often (dashboard liveness).
 constexpr Duration kHeartbeat = std::chrono::seconds(1);
+
+// The count nibble of an MC block's header (linmot-linudp.md §3.4: byte 0 = sub ID << 4 | count).
+uint8_t BlockCount(const mc::McBlock& block) {
+  return mc::Header::FromRaw(static_cast<uint16_t>(block[0] | (block[1] << 8))).count;
+}
+
 // Velocity from positions at least this far apart (decision 703).
 constexpr Duration kMinVelocityWindow = std::chrono::milliseconds(20);
 
@@ -189,6 +195,7 @@ absl::Status LinMotUdpDrive::DoActivate() {
     // never changes the drive's state.
     control_word_.reset();
     mc_block_.reset();
+    mc_guard_.Reset();  // the drive may have been commanded by anyone meanwhile
     rtc_block_.reset();
     motion_.reset();
     homing_.reset();
@@ -244,6 +251,11 @@ std::optional<ExchangeCounters> LinMotUdpDrive::exchange_counters() const {
 
 std::optional<SessionCounters> LinMotUdpDrive::session_counters() const {
   return SessionCountersOf(mu_, session_);
+}
+
+uint64_t LinMotUdpDrive::stale_motion_commands() const {
+  std::lock_guard lock(mu_);
+  return stale_motion_commands_;
 }
 
 std::optional<transport::Endpoint> LinMotUdpDrive::local_endpoint() const {
@@ -310,6 +322,7 @@ void LinMotUdpDrive::OnReply(const Reply& reply, TimePoint received) noexcept {
     velocity_mm_s_ = demand_velocity_mm_s_ = 0;
   }
 
+  CheckCountEchoLocked();
   // Status first: a handle that ends on this reply is then republished with this very sample.
   PublishLocked(false);
   // Twice, to decide as the blocking waiter would: a deadline that passed before this reply
@@ -450,6 +463,52 @@ void LinMotUdpDrive::EvaluateMotionLocked(TimePoint now) {
       absl::StrCat("interrupted: drive left Operation Enabled, now in ", StateTextLocked()));
 }
 
+void LinMotUdpDrive::CheckCountEchoLocked() {
+  const mc::StateVar sv = sample_.state_var;
+  // linmot-mc.md §2.1: the count echo is defined in main state 8 only.
+  if (!sv.operation_enabled()) return;
+  const std::optional<uint8_t> current = mc_guard_.current();
+  switch (mc_guard_.OnEcho(sv.count_echo())) {
+    case McCountGuard::Verdict::kNone:
+      return;
+    case McCountGuard::Verdict::kEcho:
+      // Decision 1461: the drive interpreted the count, so the block is no longer needed (the
+      // drive remembers its count, §4.3); from the next telegram on it is omitted (request bit
+      // 1 clear, linmot-linudp.md §3.1), so no telegram sent from now on can re-execute it.
+      if (mc_block_ && BlockCount(*mc_block_) == sv.count_echo()) mc_block_.reset();
+      return;
+    case McCountGuard::Verdict::kStale:
+      return OnStaleMotionLocked(current.value_or(0), sv.count_echo());
+  }
+}
+
+void LinMotUdpDrive::OnStaleMotionLocked(uint8_t from, uint8_t echo) {
+  ++stale_motion_commands_;
+  const std::string message = absl::StrCat(
+      "stale motion command re-executed (network reordering): the count echo went back from ", from,
+      " to ", echo,
+      ", a command superseded earlier (linmot-mc.md §4.3); axis halted with "
+      "/Abort, AcknowledgeFault releases it (decision 1461)");
+  log::Error("linudp_stale_motion_command", log::Fields()
+                                                .Add("drive", name_)
+                                                .Add("from_count", int{from})
+                                                .Add("echo", int{echo})
+                                                .Add("state_var", Hex16(sample_.state_var.raw())));
+  stale_fault_ = message;
+  // Halt first. /Abort (control word bit 4 = 0, linmot-mc.md T13): quick stop, the motor stays
+  // position-controlled, and setting the bit again holds the position until a new motion
+  // command (T14) — unlike /Quick Stop (OFF3), which ends with the power stage off.
+  SetControlWordLocked(control_word_.value_or(mc::kOperational) & ~mc::kAbortN);
+  // Nothing of ours is pending any more: a waiting command ends ERROR (its block, if any, is
+  // dropped rather than disarmed: a NOP with its count would itself look stale once echoed).
+  mc_block_.reset();
+  if (motion_) {
+    UpdateCommand(motion_->id, CommandState::kError, message);
+    motion_.reset();
+  }
+  PublishLocked(true);
+}
+
 void LinMotUdpDrive::EvaluateHomingLocked(TimePoint now) {
   if (!homing_) return;
   HomingTracker& h = *homing_;
@@ -540,13 +599,19 @@ DriveStatus LinMotUdpDrive::BuildStatusLocked() const {
   s.motion_active = sample_.status_word.motion_active();
   s.warnings = mc::WarnWord{sample_.warn_word}.SetBitNames();
   s.fault = FaultLocked();
+  if (stale_fault_) {
+    // Decision 1461: a gateway-side fault, latched until AcknowledgeFault.
+    s.state = DriveState::kFault;
+    s.fault = Fault{kFaultStaleMotionCommand, *stale_fault_, false};
+  }
   return s;
 }
 
 LinMotUdpDrive::StatusInputs LinMotUdpDrive::StatusInputsLocked() const {
   return StatusInputs{OnlineLocked(),          sample_.valid,           sample_.state_var.raw(),
                       sample_.status_word.raw, sample_.warn_word,       sample_.error_code,
-                      sample_.actual_position, sample_.demand_position, velocity_mm_s_};
+                      sample_.actual_position, sample_.demand_position, velocity_mm_s_,
+                      stale_fault_.has_value()};
 }
 
 void LinMotUdpDrive::PublishLocked(bool force) {
@@ -586,11 +651,7 @@ void LinMotUdpDrive::DisarmMcBlockLocked(uint8_t count) {
   // A command that was reported ERROR/ABORTED before the drive accepted it must not run later
   // (e.g. after a link hiccup): the same count with No Operation replaces it. A drive that did
   // take the count ignores the NOP (same count, §4.3); one that did not executes the NOP.
-  if (!mc_block_ ||
-      mc::Header::FromRaw(static_cast<uint16_t>((*mc_block_)[0] | ((*mc_block_)[1] << 8))).count !=
-          count) {
-    return;
-  }
+  if (!mc_block_ || BlockCount(*mc_block_) != count) return;
   if (auto nop = mc::EncodeMotionCommand(mc::NoOperation(), count); nop.ok()) {
     mc_block_ = *nop;
     MarkUrgentLocked();
@@ -676,6 +737,11 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::Enable() {
     const auto timeout = config().timeouts.request;
     const TimePoint deadline = clock_.Now() + timeout;
     DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, "Enable"));
+    if (stale_fault_) {
+      // Enabling would release the /Abort halt (decision 1461): acknowledging is the user's call.
+      return absl::FailedPreconditionError(
+          absl::StrCat("drive '", name_, "': Enable: ", *stale_fault_, "; AcknowledgeFault first"));
+    }
     for (;;) {
       const uint8_t ms = MainStateLocked();
       if (ms == kState(MainState::kOperationEnabled)) {
@@ -741,6 +807,24 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::AcknowledgeFault() {
     const auto timeout = config().timeouts.request;
     const TimePoint deadline = clock_.Now() + timeout;
     DGW_RETURN_IF_ERROR(WaitOnlineLocked(lock, deadline, "AcknowledgeFault"));
+    if (stale_fault_) {
+      // Decision 1461: release the /Abort halt; the drive returns to state 8 and holds its
+      // position until a new motion command (linmot-mc.md T14).
+      if (control_word_ && (*control_word_ & mc::kAbortN) == 0) {
+        SetControlWordLocked(*control_word_ | mc::kAbortN);
+        const Wait w = WaitLocked(lock, deadline, [&] {
+          return cw_answered_ >= cw_generation_ &&
+                 MainStateLocked() != kState(MainState::kAborting);
+        });
+        if (w != Wait::kReached) {
+          return WaitFailure(w, "AcknowledgeFault",
+                             absl::StrCat("/Abort released, drive still in ", StateTextLocked()));
+        }
+      }
+      log::Info("linudp_stale_motion_acknowledged", log::Fields().Add("drive", name_));
+      stale_fault_.reset();
+      PublishLocked(true);
+    }
     bool acknowledged = false;
     for (;;) {
       const uint8_t ms = MainStateLocked();
@@ -998,6 +1082,12 @@ absl::StatusOr<LinMotUdpDrive::MotionTracker> LinMotUdpDrive::StartMotionLocked(
     return absl::UnavailableError(absl::StrCat("drive '", name_, "': ", kind, ": no reply from ",
                                                endpoint(), " (link ", ToString(link_), ")"));
   }
+  // Decision 1461: halted by the gateway (state 12) until acknowledged.
+  if (stale_fault_) {
+    return absl::FailedPreconditionError(absl::StrCat("drive '", name_, "': ", kind,
+                                                      ": drive is in FAULT (", *stale_fault_,
+                                                      "); AcknowledgeFault first"));
+  }
   // D-36: outside state 8 the drive would raise 0086h (or ignore the command): refuse here.
   if (MainStateLocked() != kState(MainState::kOperationEnabled)) {
     return absl::FailedPreconditionError(
@@ -1014,6 +1104,7 @@ absl::StatusOr<LinMotUdpDrive::MotionTracker> LinMotUdpDrive::StartMotionLocked(
   const CommandInfo info = StartCommand(kind, true);  // aborts the running motion's handle
   homing_.reset();
   mc_block_ = *block;
+  mc_guard_.Arm(count, sample_.state_var.count_echo());  // state 8 checked above
   if (wake) {
     MarkUrgentLocked();
   } else {

@@ -22,6 +22,7 @@
 #include "adapters/core/drive_base.h"
 #include "adapters/linmot/linudp/codec.h"
 #include "adapters/linmot/linudp/curve_info_block.h"
+#include "adapters/linmot/linudp/mc_count_guard.h"
 #include "adapters/linmot/linudp/session.h"
 #include "adapters/linmot/mc/motion_command.h"
 #include "adapters/linmot/mc/state_var.h"
@@ -40,6 +41,10 @@ Duration PlannedVaiDuration(double distance_mm, double v0_mm_s, double vmax_mm_s
                             double dec_mm_s2);
 
 class CurveService;
+
+// Fault code of the gateway-side fault "stale motion command re-executed (network reordering)"
+// (decision 1461): above the 16-bit range of LinMot error codes, so never a drive's own code.
+inline constexpr uint32_t kFaultStaleMotionCommand = 0x10001;
 
 class LinMotUdpDrive final : public DriveBase, private SessionPeer {
  public:
@@ -91,6 +96,9 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
     return {c->telegrams_sent, c->replies, c->timeouts, c->last_round_trip_ms};
   }
   std::optional<SessionCounters> session_counters() const;
+  // Stale motion commands the drive executed (decision 1461), since construction; counted with
+  // the wire errors (drivegw_drive_wire_errors_total{kind="stale_motion"}).
+  uint64_t stale_motion_commands() const;
   std::optional<transport::Endpoint> local_endpoint() const;
 
  protected:
@@ -194,6 +202,11 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   void SetControlWordLocked(uint16_t cw);
   // Replaces an unaccepted MC block of `count` by No Operation with the same count.
   void DisarmMcBlockLocked(uint8_t count);
+  // Decision 1461 on a reply in state 8: omits the MC block once its count is echoed, and halts
+  // (/Abort) and latches FAULT when the echo shows a stale telegram was executed.
+  void CheckCountEchoLocked();
+  // The FAULT-latching reaction of CheckCountEchoLocked; `from` is the count that was current.
+  void OnStaleMotionLocked(uint8_t from, uint8_t echo);
   bool OnlineLocked() const { return link_ == LinkState::kOnline && sample_.valid; }
   uint8_t MainStateLocked() const { return sample_.state_var.main_state; }
   std::string StateTextLocked() const;  // "main state 6 (Ready To Operate)"
@@ -294,7 +307,14 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
   bool urgent_ = false;        // outbound state changed since the last telegram (decision 006)
   uint64_t cw_in_flight_ = 0;  // generation carried by the outstanding telegram
   uint64_t cw_answered_ = 0;   // generation carried by the telegram the newest reply answered
+  // Sent only until its count is echoed (decision 1461): a telegram built after the echo can
+  // never re-execute the command, whenever the network delivers it.
   std::optional<mc::McBlock> mc_block_;
+  McCountGuard mc_guard_;
+  // Set when a stale telegram was executed (decision 1461): FAULT until AcknowledgeFault, which
+  // releases the /Abort halt; motion commands and Enable are refused meanwhile.
+  std::optional<std::string> stale_fault_;
+  uint64_t stale_motion_commands_ = 0;
   std::optional<RtcRequest> rtc_block_;
   uint64_t rtc_generation_ = 0;
   uint64_t rtc_in_flight_ = 0;
@@ -325,6 +345,7 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
     int32_t actual_position = 0;
     int32_t demand_position = 0;
     double velocity_mm_s = 0;
+    bool stale_fault = false;
     friend bool operator==(const StatusInputs&, const StatusInputs&) = default;
   };
   StatusInputs StatusInputsLocked() const;

@@ -60,12 +60,7 @@ class LinUdpRecoveryTest : public ::testing::Test {
     return d.mc_commands_executed + d.mc_commands_rejected;
   }
   static bool WaitFor(const std::function<bool()>& pred) {
-    const auto deadline = std::chrono::steady_clock::now() + kWait;
-    while (!pred()) {
-      if (std::chrono::steady_clock::now() > deadline) return false;
-      std::this_thread::sleep_for(2ms);
-    }
-    return true;
+    return test_support::WaitFor(pred, kWait);
   }
   void Enable() {
     auto r = drive_->Enable();
