@@ -318,7 +318,11 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   std::filesystem::create_directories(cfg.data_dir, ec);
   if (ec) return absl::FailedPreconditionError(absl::StrCat("data_dir: cannot create '", cfg.data_dir, "': ", ec.message()));
   const std::string db_path = (std::filesystem::path(cfg.data_dir) / "drivegw.db").string();
-  DGW_ASSIGN_OR_RETURN(storage::Db db, storage::Db::Open(db_path));
+  const storage::Durability durability =
+      cfg.storage.durability == config::StorageConfig::Durability::kPowerLoss
+          ? storage::Durability::kPowerLoss
+          : storage::Durability::kProcessCrash;
+  DGW_ASSIGN_OR_RETURN(storage::Db db, storage::Db::Open(db_path, durability));
   impl->db = std::make_unique<storage::Db>(std::move(db));
   DGW_RETURN_IF_ERROR(storage::Migrate(*impl->db));
   impl->audit = std::make_unique<storage::AuditLog>(*impl->db);

@@ -214,7 +214,7 @@ Db::Db(Db&& other) noexcept = default;
 Db& Db::operator=(Db&& other) noexcept = default;
 Db::~Db() = default;
 
-absl::StatusOr<Db> Db::Open(const std::string& path) {
+absl::StatusOr<Db> Db::Open(const std::string& path, Durability durability) {
   auto impl = std::make_unique<Impl>();
   impl->path = path;
   const int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX;
@@ -235,7 +235,9 @@ absl::StatusOr<Db> Db::Open(const std::string& path) {
     return absl::FailedPreconditionError(
         absl::StrCat("storage: journal_mode is '", mode, "', want 'wal' (path=", path, ")"));
   }
-  DGW_RETURN_IF_ERROR(db.Exec("PRAGMA synchronous=NORMAL; PRAGMA foreign_keys=ON"));
+  DGW_RETURN_IF_ERROR(db.Exec(durability == Durability::kPowerLoss ? "PRAGMA synchronous=FULL"
+                                                                   : "PRAGMA synchronous=NORMAL"));
+  DGW_RETURN_IF_ERROR(db.Exec("PRAGMA foreign_keys=ON"));
   return db;
 }
 

@@ -65,15 +65,23 @@ class Statement {
   std::string sql_;
 };
 
+// How much a commit survives (decision 1443). kProcessCrash = PRAGMA synchronous=NORMAL: a
+// commit survives `kill -9` of the process (the WAL is written before COMMIT returns) but the WAL
+// is fsynced only at checkpoints, so a power loss or kernel crash can lose the newest commits.
+// kPowerLoss = synchronous=FULL: one fdatasync of the WAL per transaction (group commit shares
+// it across a batch), so an acknowledged commit survives a power cut too.
+enum class Durability { kProcessCrash, kPowerLoss };
+
 // One connection, opened READWRITE|CREATE|FULLMUTEX with journal_mode=WAL (verified),
-// synchronous=NORMAL, busy_timeout=5000, foreign_keys=ON. Move-only; objects that keep a Db&
-// (ConfigRepo, AuditLog) need it to stay put and outlive them.
+// synchronous per Durability (NORMAL by default), busy_timeout=5000, foreign_keys=ON. Move-only;
+// objects that keep a Db& (ConfigRepo, AuditLog) need it to stay put and outlive them.
 class Db {
  public:
   using Mutex = std::recursive_mutex;
 
   // The parent directory must exist (the caller creates data_dir).
-  static absl::StatusOr<Db> Open(const std::string& path);
+  static absl::StatusOr<Db> Open(const std::string& path,
+                                 Durability durability = Durability::kProcessCrash);
 
   Db(Db&& other) noexcept;
   Db& operator=(Db&& other) noexcept;

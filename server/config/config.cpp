@@ -487,15 +487,16 @@ absl::StatusOr<GatewayConfig> ParseDocument(const YAML::Node& doc,
                                             std::span<const std::string_view> families) {
   GatewayConfig cfg;
   Errors errors;
-  const Section root(
-      doc, "",
-      {"listen", "data_dir", "drives", "tls", "audit", "shutdown_timeout_s", "auth", "insecure"},
-      errors);
+  const Section root(doc, "",
+                     {"listen", "data_dir", "drives", "tls", "audit", "storage",
+                      "shutdown_timeout_s", "auth", "insecure"},
+                     errors);
   if (!doc.IsNull() && !doc.IsMap()) return errors.ToStatus();
   ParseListen(root, cfg.listen);
   internal::ParseAuth(root, cfg.auth);
   internal::ApplyAuthToListen(root, cfg.auth, cfg.listen.grpc, cfg.listen.http);
   internal::ParseAudit(root, cfg.audit);
+  internal::ParseStorage(root, cfg.storage);
   if (root.String("data_dir", cfg.data_dir) && cfg.data_dir.empty()) {
     errors.Add("data_dir", "must not be empty", *root.Get("data_dir"));
   }

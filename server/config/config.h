@@ -11,6 +11,7 @@
 #include "absl/status/statusor.h"
 #include "adapters/core/drive_config.h"
 #include "server/config/audit_config.h"
+#include "server/config/storage_config.h"
 #include "server/config/auth_config.h"
 #include "server/config/tls_config.h"
 
@@ -45,6 +46,7 @@ struct GatewayConfig {
   std::vector<DriveConfig> drives;  // empty in demo mode; the server then uses DemoDrives()
   std::optional<TlsConfig> tls;     // HTTPS and gRPC over TLS when set (decision 023)
   AuditConfig audit;                // audit trail size limit (decision 017)
+  StorageConfig storage;            // commit durability (decision 1443)
   AuthConfig auth;                  // auth.enabled and insecure (decision 015)
   // Graceful shutdown bound on SIGTERM, seconds 1..300 (decision 022).
   int shutdown_timeout_s = 10;

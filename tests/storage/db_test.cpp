@@ -3,7 +3,9 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
+#include <atomic>
 #include <filesystem>
 
 #include "tests/storage/temp_dir.h"
@@ -42,6 +44,148 @@ TEST(DbTest, Open_Pragmas_SynchronousNormalBusyTimeoutForeignKeys) {
   EXPECT_EQ(PragmaInt(*db, "PRAGMA synchronous"), 1);  // NORMAL
   EXPECT_EQ(PragmaInt(*db, "PRAGMA busy_timeout"), 5000);
   EXPECT_EQ(PragmaInt(*db, "PRAGMA foreign_keys"), 1);
+}
+
+TEST(DbTest, Open_PowerLossDurability_SynchronousFull) {
+  TempDir dir;
+  auto db = Db::Open(dir.File("t.db"), Durability::kPowerLoss);
+  ASSERT_TRUE(db.ok()) << db.status();
+  EXPECT_EQ(PragmaInt(*db, "PRAGMA synchronous"), 2);  // FULL
+  EXPECT_EQ(PragmaInt(*db, "PRAGMA foreign_keys"), 1);
+}
+
+// A VFS shim, registered as the default while it lives, counting xSync on WAL files: the only
+// way to see from the outside what reaches the disk per commit (the seam where a test may look).
+class SyncCountingVfs {
+ public:
+  SyncCountingVfs() {
+    base_ = sqlite3_vfs_find(nullptr);
+    vfs_ = *base_;
+    vfs_.zName = "sync_counting";
+    vfs_.szOsFile = base_->szOsFile + static_cast<int>(sizeof(Header));
+    vfs_.pAppData = this;
+    vfs_.xOpen = &Open;
+    io_ = {};
+    sqlite3_vfs_register(&vfs_, 1);
+  }
+  ~SyncCountingVfs() {
+    sqlite3_vfs_unregister(&vfs_);
+    sqlite3_vfs_register(base_, 1);
+  }
+  SyncCountingVfs(const SyncCountingVfs&) = delete;
+  SyncCountingVfs& operator=(const SyncCountingVfs&) = delete;
+  int wal_syncs() const { return wal_syncs_.load(); }
+
+ private:
+  // Our file: the base file's state follows the header (szOsFile above).
+  struct Header {
+    sqlite3_file file;
+    SyncCountingVfs* owner;
+    bool wal;
+  };
+  static sqlite3_file* Base(sqlite3_file* f) {
+    return reinterpret_cast<sqlite3_file*>(reinterpret_cast<Header*>(f) + 1);
+  }
+  static int Open(sqlite3_vfs* vfs, const char* name, sqlite3_file* f, int flags, int* out_flags) {
+    auto* self = static_cast<SyncCountingVfs*>(vfs->pAppData);
+    auto* h = reinterpret_cast<Header*>(f);
+    h->owner = self;
+    h->wal = (flags & SQLITE_OPEN_WAL) != 0;
+    const int rc = self->base_->xOpen(self->base_, name, Base(f), flags, out_flags);
+    if (rc != SQLITE_OK || Base(f)->pMethods == nullptr) {
+      h->file.pMethods = nullptr;
+      return rc;
+    }
+    // One method table per base table (the base uses a single one for every file here).
+    if (self->io_.iVersion == 0) {
+      self->io_ = *Base(f)->pMethods;
+      self->io_.xClose = [](sqlite3_file* file) {
+        return Base(file)->pMethods->xClose(Base(file));
+      };
+      self->io_.xRead = [](sqlite3_file* file, void* b, int n, sqlite3_int64 o) {
+        return Base(file)->pMethods->xRead(Base(file), b, n, o);
+      };
+      self->io_.xWrite = [](sqlite3_file* file, const void* b, int n, sqlite3_int64 o) {
+        return Base(file)->pMethods->xWrite(Base(file), b, n, o);
+      };
+      self->io_.xTruncate = [](sqlite3_file* file, sqlite3_int64 n) {
+        return Base(file)->pMethods->xTruncate(Base(file), n);
+      };
+      self->io_.xSync = [](sqlite3_file* file, int fl) {
+        auto* hd = reinterpret_cast<Header*>(file);
+        if (hd->wal) ++hd->owner->wal_syncs_;
+        return Base(file)->pMethods->xSync(Base(file), fl);
+      };
+      self->io_.xFileSize = [](sqlite3_file* file, sqlite3_int64* n) {
+        return Base(file)->pMethods->xFileSize(Base(file), n);
+      };
+      self->io_.xLock = [](sqlite3_file* file, int l) {
+        return Base(file)->pMethods->xLock(Base(file), l);
+      };
+      self->io_.xUnlock = [](sqlite3_file* file, int l) {
+        return Base(file)->pMethods->xUnlock(Base(file), l);
+      };
+      self->io_.xCheckReservedLock = [](sqlite3_file* file, int* r) {
+        return Base(file)->pMethods->xCheckReservedLock(Base(file), r);
+      };
+      self->io_.xFileControl = [](sqlite3_file* file, int op, void* a) {
+        return Base(file)->pMethods->xFileControl(Base(file), op, a);
+      };
+      self->io_.xSectorSize = [](sqlite3_file* file) {
+        return Base(file)->pMethods->xSectorSize(Base(file));
+      };
+      self->io_.xDeviceCharacteristics = [](sqlite3_file* file) {
+        return Base(file)->pMethods->xDeviceCharacteristics(Base(file));
+      };
+      self->io_.xShmMap = [](sqlite3_file* file, int r, int sz, int e, void volatile** p) {
+        return Base(file)->pMethods->xShmMap(Base(file), r, sz, e, p);
+      };
+      self->io_.xShmLock = [](sqlite3_file* file, int o, int n, int fl) {
+        return Base(file)->pMethods->xShmLock(Base(file), o, n, fl);
+      };
+      self->io_.xShmBarrier = [](sqlite3_file* file) {
+        Base(file)->pMethods->xShmBarrier(Base(file));
+      };
+      self->io_.xShmUnmap = [](sqlite3_file* file, int d) {
+        return Base(file)->pMethods->xShmUnmap(Base(file), d);
+      };
+      self->io_.xFetch = [](sqlite3_file* file, sqlite3_int64 o, int n, void** p) {
+        return Base(file)->pMethods->xFetch(Base(file), o, n, p);
+      };
+      self->io_.xUnfetch = [](sqlite3_file* file, sqlite3_int64 o, void* p) {
+        return Base(file)->pMethods->xUnfetch(Base(file), o, p);
+      };
+    }
+    h->file.pMethods = &self->io_;
+    return rc;
+  }
+
+  sqlite3_vfs* base_ = nullptr;
+  sqlite3_vfs vfs_{};
+  sqlite3_io_methods io_{};
+  std::atomic<int> wal_syncs_{0};
+};
+
+// What each durability buys, seen at the disk: FULL syncs the WAL once per transaction, NORMAL
+// leaves it to the checkpoint (decision 1443). 20 single-row commits, far below the
+// auto-checkpoint's 1000 pages, so NORMAL must not sync at all.
+TEST(DbTest, Durability_FullSyncsTheWalPerCommit_NormalDoesNot) {
+  for (const Durability d : {Durability::kProcessCrash, Durability::kPowerLoss}) {
+    SyncCountingVfs vfs;
+    TempDir dir;
+    auto db = Db::Open(dir.File("t.db"), d);
+    ASSERT_TRUE(db.ok()) << db.status();
+    ASSERT_TRUE(db->Exec("CREATE TABLE t (x INTEGER)").ok());
+    const int before = vfs.wal_syncs();
+    constexpr int kCommits = 20;
+    for (int i = 0; i < kCommits; ++i) ASSERT_TRUE(db->Exec("INSERT INTO t VALUES (1)").ok());
+    const int syncs = vfs.wal_syncs() - before;
+    if (d == Durability::kPowerLoss) {
+      EXPECT_GE(syncs, kCommits) << "FULL must fdatasync the WAL at every commit";
+    } else {
+      EXPECT_EQ(syncs, 0) << "NORMAL syncs the WAL only at checkpoints";
+    }
+  }
 }
 
 TEST(DbTest, Open_InMemory_FailsBecauseWalNeedsAFile) {
