@@ -17,6 +17,7 @@
 #include "server/core/curve_set_io.h"
 #include "server/core/drive_service.h"
 #include "server/core/errors.h"
+#include "server/core/page_token.h"
 
 namespace drivegw::server {
 namespace {
@@ -298,7 +299,9 @@ absl::StatusOr<v1::ListCurveSetsResponse> CurveSetServiceCore::ListCurveSets(
   }
   const int limit = r.page_size() == 0 ? 100 : r.page_size();
   storage::CurveSetQuery q;
-  if (!r.page_token().empty()) q.after_name = r.page_token();
+  auto after = SetPageToken(r.page_token());
+  if (!after.ok()) return after.status();
+  q.after_name = *std::move(after);
   // One more than asked for tells whether a next page exists.
   q.limit = std::min(limit + 1, storage::CurveSetQuery::kMaxLimit);
   auto sets = repo_.List(q);

@@ -187,6 +187,32 @@ TEST_F(CurveSetServiceTest, CreateGetListUpdateVersions_RoundTripAndNewVersion) 
             absl::StatusCode::kInvalidArgument);
 }
 
+// Gap 14 (decision 1494): a page token List cannot have handed out is refused naming page_token.
+TEST_F(CurveSetServiceTest, ListMalformedPageToken_InvalidArgumentNamingTheRule) {
+  Create("a", {Parabola("lift")});
+  Create("b", {Parabola("lift")});
+  v1::ListCurveSetsRequest r;
+  r.set_page_token("curveSets/a");
+  auto bad = core_->ListCurveSets(r, ctx_);
+  ASSERT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(Fields(bad.status()), ElementsAre("page_token"));
+  EXPECT_THAT(Msg(bad.status()), HasSubstr("'curveSets/a' is not a token this service handed out "
+                                           "(character at index 9;"));
+  r.set_page_token(std::string(300, 'z'));
+  EXPECT_THAT(Msg(core_->ListCurveSets(r, ctx_).status()),
+              HasSubstr("page_token: 300 bytes exceed 128"));
+  r.set_page_size(1);
+  r.clear_page_token();
+  auto first = core_->ListCurveSets(r, ctx_);
+  ASSERT_TRUE(first.ok()) << first.status();
+  EXPECT_EQ(first->next_page_token(), "a");
+  r.set_page_token(first->next_page_token());
+  auto second = core_->ListCurveSets(r, ctx_);
+  ASSERT_TRUE(second.ok()) << second.status();
+  ASSERT_EQ(second->curve_sets_size(), 1);
+  EXPECT_EQ(second->curve_sets(0).name(), "curveSets/b");
+}
+
 TEST_F(CurveSetServiceTest, UpdateDelete_StaleOrMissingEtag_RefusedWithEtagDetail) {
   const v1::CurveSet created = Create("press", {Parabola("lift")});
   v1::UpdateCurveSetRequest u;
