@@ -460,6 +460,11 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   ops::InstallRoundTripHistograms();
   impl->drive_collector = ops::AddDriveCollector(ops::DefaultRegistry(), impl->drives);
   grpc::ServerBuilder builder;
+  // Explicit message limits instead of gRPC's implicit ones (decision 1492).
+  static_assert(rest::kDefaultBodyLimit <= static_cast<size_t>(kGrpcMaxMessageBytes),
+                "a REST body the HTTP front end accepts must pass the in-process gRPC hop");
+  builder.SetMaxReceiveMessageSize(kGrpcMaxMessageBytes);
+  builder.SetMaxSendMessageSize(kGrpcMaxMessageBytes);
   {
     // Per-RPC metrics on every call, REST's in-process ones included (decision 021).
     std::map<std::string, std::string> families;
@@ -497,7 +502,14 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   rest::RestOptions ro;
   ro.listen_address = http_addr.first;
   ro.port = http_addr.second;
-  ro.channel = impl->grpc_server->InProcessChannel(grpc::ChannelArguments());
+  {
+    // The REST front end is a gRPC client: without these its channel keeps the 4 MiB default and
+    // a reply the server may send (a large curve set) would fail on the way back (decision 1492).
+    grpc::ChannelArguments in_process;
+    in_process.SetMaxReceiveMessageSize(kGrpcMaxMessageBytes);
+    in_process.SetMaxSendMessageSize(kGrpcMaxMessageBytes);
+    ro.channel = impl->grpc_server->InProcessChannel(in_process);
+  }
   ro.openapi_json = std::string(kOpenApiJson);
   ro.more_services = {"drivegw.v1.ParameterSetService", "drivegw.v1.CurveSetService"};
   ro.more_services.push_back("drivegw.v1.TokenService");
