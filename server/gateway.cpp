@@ -28,6 +28,7 @@
 #include "server/core/audit_service.h"
 #include "server/core/drive_event_recorder.h"
 #include "server/core/parameter_set_service.h"
+#include "server/database_check.h"
 #include "server/auth/authenticator.h"
 #include "server/auth/token_service.h"
 #include "server/grpc/audit_service_grpc.h"
@@ -315,10 +316,16 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
 
   // Storage first: a gateway that cannot audit does not start.
   std::error_code ec;
+  // "data_dir: …" so drivegw can name DRIVEGW_DATA_DIR when the value came from there (1493).
+  if (std::filesystem::exists(cfg.data_dir, ec) && !std::filesystem::is_directory(cfg.data_dir, ec)) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("data_dir: '", cfg.data_dir, "' exists and is not a directory"));
+  }
   std::filesystem::create_directories(cfg.data_dir, ec);
   if (ec) return absl::FailedPreconditionError(absl::StrCat("data_dir: cannot create '", cfg.data_dir, "': ", ec.message()));
   const std::string db_path = (std::filesystem::path(cfg.data_dir) / "drivegw.db").string();
-  DGW_ASSIGN_OR_RETURN(storage::Db db, storage::Db::Open(db_path));
+  // A damaged file stops the start here, named, before anything is written (decision 1495).
+  DGW_ASSIGN_OR_RETURN(storage::Db db, OpenCheckedDatabase(db_path));
   impl->db = std::make_unique<storage::Db>(std::move(db));
   DGW_RETURN_IF_ERROR(storage::Migrate(*impl->db));
   impl->audit = std::make_unique<storage::AuditLog>(*impl->db);
