@@ -96,7 +96,8 @@ int main(int argc, char** argv) {
       Usage();
       return 0;
     } else {
-      std::fprintf(stderr, "drivegw: unknown argument '%s' (known: --config FILE, --help, token, health)\n",
+      std::fprintf(stderr,
+                   "drivegw: unknown argument '%s' (known: --config FILE, --help, token, health)\n",
                    argv[i]);
       Usage();
       return 2;
