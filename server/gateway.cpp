@@ -28,6 +28,7 @@
 #include "server/core/audit_service.h"
 #include "server/core/drive_event_recorder.h"
 #include "server/core/parameter_set_service.h"
+#include "server/database_check.h"
 #include "server/auth/authenticator.h"
 #include "server/auth/token_service.h"
 #include "server/grpc/audit_service_grpc.h"
@@ -315,6 +316,11 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
 
   // Storage first: a gateway that cannot audit does not start.
   std::error_code ec;
+  // "data_dir: …" so drivegw can name DRIVEGW_DATA_DIR when the value came from there (1493).
+  if (std::filesystem::exists(cfg.data_dir, ec) && !std::filesystem::is_directory(cfg.data_dir, ec)) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("data_dir: '", cfg.data_dir, "' exists and is not a directory"));
+  }
   std::filesystem::create_directories(cfg.data_dir, ec);
   if (ec) return absl::FailedPreconditionError(absl::StrCat("data_dir: cannot create '", cfg.data_dir, "': ", ec.message()));
   const std::string db_path = (std::filesystem::path(cfg.data_dir) / "drivegw.db").string();
@@ -322,7 +328,8 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
       cfg.storage.durability == config::StorageConfig::Durability::kPowerLoss
           ? storage::Durability::kPowerLoss
           : storage::Durability::kProcessCrash;
-  DGW_ASSIGN_OR_RETURN(storage::Db db, storage::Db::Open(db_path, durability));
+  // A damaged file stops the start here, named, before anything is written (decision 1495).
+  DGW_ASSIGN_OR_RETURN(storage::Db db, OpenCheckedDatabase(db_path, durability));
   impl->db = std::make_unique<storage::Db>(std::move(db));
   DGW_RETURN_IF_ERROR(storage::Migrate(*impl->db));
   impl->audit = std::make_unique<storage::AuditLog>(*impl->db);
@@ -464,6 +471,11 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   ops::InstallRoundTripHistograms();
   impl->drive_collector = ops::AddDriveCollector(ops::DefaultRegistry(), impl->drives);
   grpc::ServerBuilder builder;
+  // Explicit message limits instead of gRPC's implicit ones (decision 1492).
+  static_assert(rest::kDefaultBodyLimit <= static_cast<size_t>(kGrpcMaxMessageBytes),
+                "a REST body the HTTP front end accepts must pass the in-process gRPC hop");
+  builder.SetMaxReceiveMessageSize(kGrpcMaxMessageBytes);
+  builder.SetMaxSendMessageSize(kGrpcMaxMessageBytes);
   {
     // Per-RPC metrics on every call, REST's in-process ones included (decision 021).
     std::map<std::string, std::string> families;
@@ -501,7 +513,14 @@ absl::StatusOr<std::unique_ptr<Gateway>> Gateway::Start(GatewayOptions options, 
   rest::RestOptions ro;
   ro.listen_address = http_addr.first;
   ro.port = http_addr.second;
-  ro.channel = impl->grpc_server->InProcessChannel(grpc::ChannelArguments());
+  {
+    // The REST front end is a gRPC client: without these its channel keeps the 4 MiB default and
+    // a reply the server may send (a large curve set) would fail on the way back (decision 1492).
+    grpc::ChannelArguments in_process;
+    in_process.SetMaxReceiveMessageSize(kGrpcMaxMessageBytes);
+    in_process.SetMaxSendMessageSize(kGrpcMaxMessageBytes);
+    ro.channel = impl->grpc_server->InProcessChannel(in_process);
+  }
   ro.openapi_json = std::string(kOpenApiJson);
   ro.more_services = {"drivegw.v1.ParameterSetService", "drivegw.v1.CurveSetService"};
   ro.more_services.push_back("drivegw.v1.TokenService");

@@ -28,6 +28,14 @@ class AxisServer;
 
 namespace drivegw::server {
 
+// The gRPC message limit, received and sent, on the network port and on the REST front end's
+// in-process channel (decision 1492; gRPC's implicit default is 4 MiB received, unlimited sent).
+// Sized for the largest legitimate request, a curve set of 100 LinMot curves (one per curve ID,
+// linmot-mc.md §7 L997) of 16383 points (linmot-linudp.md L310) at up to 10 bytes per point
+// (a negative int32 varint): 16,383,000 bytes, plus names and descriptions. A larger message is
+// refused RESOURCE_EXHAUSTED "Received message larger than max (… vs. 16777216)".
+inline constexpr int kGrpcMaxMessageBytes = 16 << 20;
+
 struct GatewayOptions {
   config::GatewayConfig config;
   // Demo mode: the first simulated drive's UDP port (consecutive ports for the others) and

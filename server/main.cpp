@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -85,13 +86,19 @@ int main(int argc, char** argv) {
   }
   std::string config_flag;
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--config") == 0 && i + 1 < argc) {
+    if (std::strcmp(argv[i], "--config") == 0) {
+      if (i + 1 >= argc || argv[i + 1][0] == '\0') {
+        std::fprintf(stderr, "drivegw: --config needs a FILE (drivegw --config FILE)\n");
+        return 2;
+      }
       config_flag = argv[++i];
     } else if (std::strcmp(argv[i], "--help") == 0 || std::strcmp(argv[i], "-h") == 0) {
       Usage();
       return 0;
     } else {
-      std::fprintf(stderr, "drivegw: unknown argument '%s'\n", argv[i]);
+      std::fprintf(stderr,
+                   "drivegw: unknown argument '%s' (known: --config FILE, --help, token, health)\n",
+                   argv[i]);
       Usage();
       return 2;
     }
@@ -129,11 +136,25 @@ int main(int argc, char** argv) {
   const int shutdown_timeout_s = cfg->shutdown_timeout_s;
   drivegw::server::GatewayOptions options;
   options.config = *std::move(cfg);
-  const char* web = std::getenv("DGW_WEB_DIR");
-  if (web != nullptr) options.static_dir = web;
+  // DGW_WEB_DIR replaces the embedded dashboard (docs/config.md "Environment"); a path that is no
+  // directory would answer 404 for every page, so it stops the start instead (decision 1493).
+  const char* web = env("DGW_WEB_DIR");
+  if (web != nullptr && *web != '\0') {
+    std::error_code ec;
+    if (!std::filesystem::is_directory(web, ec)) {
+      std::fprintf(stderr,
+                   "drivegw: DGW_WEB_DIR: '%s' is not a directory (unset it to serve the embedded "
+                   "dashboard)\n",
+                   web);
+      return 2;
+    }
+    options.static_dir = web;
+  }
   auto gateway = drivegw::server::Gateway::Start(std::move(options));
   if (!gateway.ok()) {
-    std::fprintf(stderr, "drivegw: %s\n", std::string(gateway.status().message()).c_str());
+    // A start-up error about a key names the variable the value came from (decision 1493).
+    const absl::Status named = drivegw::config::NameOverrides(gateway.status(), overrides);
+    std::fprintf(stderr, "drivegw: %s\n", std::string(named.message()).c_str());
     return 1;
   }
   std::fprintf(stderr, "drivegw: gRPC on :%u, HTTP on :%u — Ctrl-C stops\n", (*gateway)->grpc_port(),

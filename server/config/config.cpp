@@ -535,9 +535,10 @@ void ApplyOverride(YAML::Node& doc, const ConfigOverride& o) {
   parent[parts.back()] = YAML::Node(o.value);
 }
 
+}  // namespace
+
 // Every line of Errors starts with the key path ("listen.http: ..."), and the lines are joined
-// with "; " (section.cpp). A line about an overridden key gets the variable after its path, the
-// only hint where a value without a file position came from.
+// with "; " (section.cpp).
 absl::Status NameOverrides(const absl::Status& status, std::span<const ConfigOverride> overrides) {
   if (status.ok() || overrides.empty()) return status;
   std::vector<std::string> lines = absl::StrSplit(status.message(), "; ");
@@ -552,8 +553,6 @@ absl::Status NameOverrides(const absl::Status& status, std::span<const ConfigOve
   }
   return absl::Status(status.code(), absl::StrJoin(lines, "; "));
 }
-
-}  // namespace
 
 absl::StatusOr<GatewayConfig> ParseConfig(std::string_view yaml_text,
                                           std::span<const std::string_view> families,

@@ -50,8 +50,8 @@ struct GatewayConfig {
   AuthConfig auth;                  // auth.enabled and insecure (decision 015)
   // Graceful shutdown bound on SIGTERM, seconds 1..300 (decision 022).
   int shutdown_timeout_s = 10;
-  bool demo = true;                 // true when the config has no `drives:` key (or no file)
-  std::string source_yaml;          // the text that was parsed, verbatim (without overrides)
+  bool demo = true;         // true when the config has no `drives:` key (or no file)
+  std::string source_yaml;  // the text that was parsed, verbatim (without overrides)
 };
 
 // Parses and validates. Every problem is an InvalidArgument whose message names the key path
@@ -62,6 +62,12 @@ struct GatewayConfig {
 absl::StatusOr<GatewayConfig> ParseConfig(
     std::string_view yaml_text, std::span<const std::string_view> families = kKnownFamilies,
     std::span<const ConfigOverride> overrides = {});
+
+// A line of `status` ("; "-joined, each starting "<key path>: ") about an overridden key gets the
+// variable after its path, "data_dir (from DRIVEGW_DATA_DIR): …": the only hint where a value
+// without a file position came from. ParseConfig applies it; drivegw also to start-up errors
+// about a key (an unusable data_dir; decision 1493).
+absl::Status NameOverrides(const absl::Status& status, std::span<const ConfigOverride> overrides);
 
 // Reads and parses `path`. NotFound naming the path when the file does not exist.
 absl::StatusOr<GatewayConfig> LoadConfigFile(

@@ -15,7 +15,9 @@
 #include "server/core/audit.h"
 #include "server/core/convert.h"
 #include "server/core/curve_set_io.h"
+#include "server/core/drive_service.h"
 #include "server/core/errors.h"
+#include "server/core/page_token.h"
 
 namespace drivegw::server {
 namespace {
@@ -297,7 +299,9 @@ absl::StatusOr<v1::ListCurveSetsResponse> CurveSetServiceCore::ListCurveSets(
   }
   const int limit = r.page_size() == 0 ? 100 : r.page_size();
   storage::CurveSetQuery q;
-  if (!r.page_token().empty()) q.after_name = r.page_token();
+  auto after = SetPageToken(r.page_token());
+  if (!after.ok()) return after.status();
+  q.after_name = *std::move(after);
   // One more than asked for tells whether a next page exists.
   q.limit = std::min(limit + 1, storage::CurveSetQuery::kMaxLimit);
   auto sets = repo_.List(q);
@@ -474,6 +478,9 @@ absl::StatusOr<v1::DownloadCurveResponse> CurveSetServiceCore::DownloadCurve(
   entry.Num("curve_id", wire->curve_id)
       .Num("points", static_cast<double>(wire->points.size()))
       .Str("hash", hash);
+  // A download writes the drive's curve memory like WriteParameter does: refused while DOWN, last
+  // before the family, so a request that can never be valid is named as such first (decision 1491).
+  if (auto down = RefuseIfDown(d, "DownloadCurve"); !down.ok()) return done(down);
   absl::Status s = MapUnsupported(d.DownloadCurve(*wire), d, "DownloadCurve",
                                   "curves are stored on LinMot drives only; RunCurve runs them "
                                   "on every family");
@@ -523,6 +530,8 @@ absl::StatusOr<v1::CommandHandle> CurveSetServiceCore::RunCurve(const v1::RunCur
                                 LM::kMaxCurveId, " (linmot-mc.md §7 L997)")));
   }
   if (auto sum = SummarizeCurve(*curve); sum.ok()) entry.Num("duration_s", sum->duration_s);
+  // A curve run moves the axis: refused while DOWN like every move (decision 1491).
+  if (auto down = RefuseIfDown(d, "RunCurve"); !down.ok()) return done(down);
   auto info = d.RunCurve(*curve, options);
   if (!info.ok()) {
     return done(MapUnsupported(info.status(), d, "RunCurve",

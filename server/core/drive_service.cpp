@@ -392,6 +392,8 @@ absl::StatusOr<std::unique_ptr<CyclicSetpointStream>> DriveServiceCore::StartCyc
     }
     if (shutting_down_.load()) return absl::UnavailableError("the gateway is shutting down");
     if (auto s = CheckLease(leases_, drive_name, c); !s.ok()) return s;
+    // A cyclic command moves the axis like a move does (decision 1491): refused while DOWN.
+    if (auto down = RefuseIfDown(**drive, "StreamCyclicSetpoints"); !down.ok()) return down;
     auto started = (*drive)->StartCyclic(*mode);
     if (!started.ok()) return started.status();
     if (*started == nullptr) {

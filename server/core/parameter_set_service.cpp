@@ -12,6 +12,7 @@
 #include "google/rpc/error_details.pb.h"
 #include "server/core/audit.h"
 #include "server/core/errors.h"
+#include "server/core/page_token.h"
 #include "server/core/parameter_set_io.h"
 
 namespace drivegw::server {
@@ -227,10 +228,12 @@ absl::StatusOr<Drive*> ParameterSetServiceCore::FindDrive(const std::string& fie
 }
 
 absl::StatusOr<storage::ParameterSet> ParameterSetServiceCore::SetAt(const std::string& name,
-                                                                     int version) {
+                                                                     int version,
+                                                                     const char* version_field) {
+  // A negative version is refused before the lookup: it is wrong whether the set exists or not.
+  if (version < 0) return FieldError(version_field, absl::StrCat(version, " is below 0"));
   auto set = repo_.Get(name);
   if (!set.ok() || version == 0 || version == set->version) return set;
-  if (version < 0) return FieldError("version", absl::StrCat(version, " is below 0"));
   auto v = repo_.GetVersion(name, version);
   if (!v.ok()) return v.status();
   set->version = v->version;
@@ -332,7 +335,9 @@ absl::StatusOr<v1::ListParameterSetsResponse> ParameterSetServiceCore::ListParam
   }
   storage::ParameterSetQuery q;
   if (!r.family().empty()) q.family = r.family();
-  if (!r.page_token().empty()) q.after_name = r.page_token();
+  auto after = SetPageToken(r.page_token());
+  if (!after.ok()) return after.status();
+  q.after_name = *std::move(after);
   const int limit = r.page_size() == 0 ? 100 : r.page_size();
   // One more than the page tells whether a next page exists.
   q.limit = std::min(limit + 1, storage::ParameterSetQuery::kMaxLimit);
@@ -511,7 +516,7 @@ absl::StatusOr<v1::DiffParameterSetResponse> ParameterSetServiceCore::DiffParame
   } else if (r.other_version() == 0) {
     return FieldError("other", "one of drive, other_set or other_version is required");
   }
-  auto b = SetAt(other, r.other_version());
+  auto b = SetAt(other, r.other_version(), "other_version");
   if (!b.ok()) return b.status();
   // Union in a's order, then b's extra parameters.
   std::vector<uint32_t> order;

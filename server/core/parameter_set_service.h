@@ -82,7 +82,8 @@ class ParameterSetServiceCore {
                        std::vector<storage::ParameterValue>& values) const;
   absl::StatusOr<Drive*> FindDrive(const std::string& field, const std::string& name) const;
   // A set at `version` (0 = newest) as the applier takes it.
-  absl::StatusOr<storage::ParameterSet> SetAt(const std::string& name, int version);
+  absl::StatusOr<storage::ParameterSet> SetAt(const std::string& name, int version,
+                                              const char* version_field = "version");
   // Create-or-new-version used by create, capture and import; audits `action`.
   absl::StatusOr<v1::ParameterSet> Store(const std::string& action, storage::ParameterSet set,
                                          bool create, const std::string& etag,

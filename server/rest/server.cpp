@@ -26,6 +26,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/log.h"
+#include "server/rest/request_reader.h"
 #include "server/rest/router.h"
 #include "server/rest/session_registry.h"
 #include "server/rest/ws_session.h"
@@ -40,12 +41,9 @@ using tcp = net::ip::tcp;
 using beast::error_code;
 using TlsStream = net::ssl::stream<tcp::socket>;
 
-constexpr size_t kMaxPipelined = 8;       // requests read ahead of their responses
-constexpr uint32_t kHeaderLimit = 16384;  // request line + headers
+constexpr size_t kMaxPipelined = 8;  // requests read ahead of their responses
 constexpr auto kLingerTime = std::chrono::seconds(1);
 constexpr size_t kLingerBytes = 1 << 20;
-constexpr int kInvalidArgument = 3;
-constexpr int kResourceExhausted = 8;
 
 std::string Str(beast::string_view s) { return std::string(s.data(), s.size()); }
 
@@ -58,10 +56,6 @@ std::string PeerString(const tcp::endpoint& ep) {
 // A wait that completed may have been re-armed meanwhile (its handler was already queued).
 bool Expired(const net::steady_timer& t) {
   return t.expiry() <= net::steady_timer::clock_type::now();
-}
-
-bool IsParseError(const error_code& ec) {
-  return ec.category() == http::make_error_code(http::error::bad_target).category();
 }
 
 // The Exchange whose request the router is handling on this thread right now (set around
@@ -230,8 +224,7 @@ class Session final : public SessionBase {
   void DoRead() {
     if (reading_ || closed_ || peer_done_ || slots_.size() >= kMaxPipelined) return;
     parser_.emplace();
-    parser_->body_limit(shared_.options.body_limit);
-    parser_->header_limit(kHeaderLimit);
+    ConfigureRequestParser(*parser_, shared_.options.body_limit);
     reading_ = true;
     UpdateIdleDeadline();
     http::async_read(stream_, buffer_, *parser_,
@@ -251,18 +244,8 @@ class Session final : public SessionBase {
       if (slots_.empty()) DoClose();
       return;
     }
-    if (ec == http::error::body_limit) {
-      return Reject(ErrorResponse(413, kResourceExhausted,
-                                  absl::StrCat("request body exceeds the limit of ",
-                                               shared_.options.body_limit, " bytes")));
-    }
-    if (ec == http::error::header_limit) {
-      return Reject(ErrorResponse(431, kResourceExhausted,
-                                  absl::StrCat("request header exceeds ", kHeaderLimit, " bytes")));
-    }
-    if (ec && IsParseError(ec) && ec != http::error::partial_message) {
-      return Reject(ErrorResponse(400, kInvalidArgument,
-                                  absl::StrCat("malformed HTTP request: ", ec.message())));
+    if (auto rejection = RejectionFor(ec, shared_.options.body_limit)) {
+      return Reject(*std::move(rejection));
     }
     if (ec) {
       if (ec != net::error::operation_aborted) {

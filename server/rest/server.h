@@ -24,6 +24,11 @@ class Channel;
 
 namespace drivegw::rest {
 
+// Request bodies above this get 413 (RestOptions::body_limit's default). JSON is larger than the
+// protobuf message it transcodes to, so every body accepted here passes the in-process gRPC hop
+// (kGrpcMaxMessageBytes in server/gateway.h; decision 1492).
+inline constexpr size_t kDefaultBodyLimit = 1 << 20;
+
 struct RestOptions {
   std::string listen_address = "0.0.0.0";
   uint16_t port = 8080;                    // 0: ephemeral, read back with RestServer::port()
@@ -34,7 +39,7 @@ struct RestOptions {
   // The dashboard served at GET / and /assets/<file> when static_dir is empty (decision 505);
   // tests put a fixture set here.
   const WebAssetSet* web_assets = &EmbeddedWebAssets();
-  size_t body_limit = 1 << 20;  // larger request bodies get 413
+  size_t body_limit = kDefaultBodyLimit;  // larger request bodies get 413
   // Deadline for a whole request once the connection is idle, and for every write.
   std::chrono::seconds read_timeout{30};
   int threads = 2;

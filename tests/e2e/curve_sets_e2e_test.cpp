@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "adapters/core/curve.h"
 #include "adapters/stober/param_id.h"
 #include "drivegw/v1/curve_sets.grpc.pb.h"
 #include "drivegw/v1/drive.grpc.pb.h"
@@ -329,6 +330,79 @@ TEST_F(CurveSetsE2eTest, CreatePlotValidateUpdateDownloadRun_OverRestAndGrpc_Aud
 
 // LinMot x1 (committed runner and curve service, decisions 706/707): a position/time curve is
 // downloaded under ID 7 (read back by the drive) and runs natively to DONE at its end point.
+// Decision 1492: explicit gRPC message limits (kGrpcMaxMessageBytes, 16 MiB) on the network port
+// and on REST's in-process channel. A curve set above gRPC's implicit 4 MiB is stored over gRPC
+// and read back over gRPC and REST; a request above the limit is RESOURCE_EXHAUSTED naming it,
+// and the gateway keeps serving.
+TEST_F(CurveSetsE2eTest, GrpcMessageLimit_LargeSetServedOverGrpcAndRest_OversizedRefusedGatewayUp) {
+  grpc::ChannelArguments unlimited;  // the client side must not be what refuses
+  unlimited.SetMaxReceiveMessageSize(-1);
+  unlimited.SetMaxSendMessageSize(-1);
+  auto stub = v1::CurveSetService::NewStub(
+      grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(gw_->grpc_port()),
+                                grpc::InsecureChannelCredentials(), unlimited));
+  // 30 LinMot curves of the most points a curve holds, negative: 10 bytes each as an int32 varint.
+  v1::CreateCurveSetRequest big;
+  big.mutable_curve_set()->set_name("curveSets/big");
+  for (int id = 1; id <= 30; ++id) {
+    v1::Curve* c = big.mutable_curve_set()->add_curves();
+    c->set_name("c" + std::to_string(id));
+    c->mutable_linmot()->set_curve_id(id);
+    c->mutable_linmot()->set_x_length_s(1);
+    for (int i = 0; i < LinMotParametricCurve::kMaxPoints; ++i) {
+      c->mutable_linmot()->add_points(-1 - i);
+    }
+  }
+  ASSERT_GT(big.ByteSizeLong(), size_t{4} << 20);  // above gRPC's implicit receive limit
+  ASSERT_LT(big.ByteSizeLong(), static_cast<size_t>(kGrpcMaxMessageBytes));
+  {
+    grpc::ClientContext ctx;
+    v1::CurveSet created;
+    const grpc::Status s = stub->CreateCurveSet(&ctx, big, &created);
+    ASSERT_TRUE(s.ok()) << s.error_code() << " " << s.error_message();
+    EXPECT_EQ(created.curves_size(), 30);
+  }
+  {
+    grpc::ClientContext ctx;
+    v1::GetCurveSetRequest get;
+    get.set_name("curveSets/big");
+    v1::CurveSet got;
+    const grpc::Status s = stub->GetCurveSet(&ctx, get, &got);
+    ASSERT_TRUE(s.ok()) << s.error_code() << " " << s.error_message();
+    ASSERT_EQ(got.curves_size(), 30);
+    EXPECT_EQ(got.curves(29).linmot().points_size(), LinMotParametricCurve::kMaxPoints);
+  }
+  // Through REST the reply crosses the in-process channel, a gRPC client of its own.
+  auto rest = HttpRequest(http(), "GET", "/v1/curveSets/big");
+  ASSERT_EQ(rest.status, 200) << rest.body.substr(0, 300);
+  EXPECT_NE(rest.body.find("\"c30\""), std::string::npos);
+
+  // One position/time curve of 16 MiB of doubles: above the limit.
+  v1::CreateCurveSetRequest huge;
+  huge.mutable_curve_set()->set_name("curveSets/huge");
+  v1::Curve* c = huge.mutable_curve_set()->add_curves();
+  c->set_name("long");
+  c->mutable_position_time()->set_time_step_s(0.001);
+  c->mutable_position_time()->mutable_positions_mm()->Resize(kGrpcMaxMessageBytes / 8, 1.0);
+  ASSERT_GT(huge.ByteSizeLong(), static_cast<size_t>(kGrpcMaxMessageBytes));
+  {
+    grpc::ClientContext ctx;
+    v1::CurveSet created;
+    const grpc::Status s = stub->CreateCurveSet(&ctx, huge, &created);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+    EXPECT_NE(s.error_message().find(std::to_string(kGrpcMaxMessageBytes)), std::string::npos)
+        << s.error_message();
+  }
+  // Still serving, on both front ends; the oversized set was never stored.
+  grpc::ClientContext ctx;
+  v1::ListCurveSetsResponse list;
+  const grpc::Status listed = stub->ListCurveSets(&ctx, v1::ListCurveSetsRequest(), &list);
+  ASSERT_TRUE(listed.ok()) << listed.error_message();
+  ASSERT_EQ(list.curve_sets_size(), 1);
+  EXPECT_EQ(list.curve_sets(0).name(), "curveSets/big");
+  EXPECT_EQ(HttpRequest(http(), "GET", "/v1/drives").status, 200);
+}
+
 TEST_F(CurveSetsE2eTest, LinMotX1_DownloadAndRunPositionTimeCurve_DoneAtEndAudited) {
   ASSERT_FALSE(Field(CreateSet(), "etag").empty());
   auto stored = HttpRequest(http(), "POST", "/v1/drives/x1:downloadCurve",

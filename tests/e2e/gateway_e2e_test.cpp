@@ -330,6 +330,63 @@ TEST_F(GatewayE2eTest, Demo_TrinamicPtyLink_StaleReplacedOtherFileRefused) {
   EXPECT_NE(refused.status().message().find(link.string()), std::string::npos) << refused.status();
 }
 
+// Gap 14 (decision 1495): a database file whose header is valid but whose pages are damaged stops
+// the start with DATA_LOSS naming data_dir, the file and SQLite's finding, instead of starting
+// and failing the first audited command: damage in the schema's pages (Open fails) and in the
+// last page only (Open succeeds, PRAGMA quick_check finds it). The undamaged file starts again.
+TEST_F(GatewayE2eTest, Start_DatabaseDamagedBehindAValidHeader_DataLossNamingTheFile) {
+  gw_.reset();  // closes the database (its WAL is checkpointed into the file)
+  const std::filesystem::path db = std::filesystem::path(data_dir_) / "drivegw.db";
+  const auto size = std::filesystem::file_size(db);
+  ASSERT_GT(size, 4 * 4096u) << "too small to damage behind the header";
+  std::vector<char> original(size);
+  std::ifstream(db, std::ios::binary).read(original.data(), static_cast<std::streamsize>(size));
+  // Overwrites [from, size) with seeded noise, as a torn write or a bad sector would leave it.
+  auto damage = [&](std::uintmax_t from) {
+    std::ofstream(db, std::ios::binary | std::ios::trunc)
+        .write(original.data(), static_cast<std::streamsize>(size));
+    std::mt19937 noise(1495);
+    std::fstream f(db, std::ios::binary | std::ios::in | std::ios::out);
+    f.seekp(static_cast<std::streamoff>(from));
+    for (auto i = from; i < size; ++i) f.put(static_cast<char>(noise()));
+  };
+  const std::string prefix = "data_dir: database '" + db.string() + "' ";
+  for (const std::uintmax_t from : {std::uintmax_t{4096}, size - 4096}) {
+    SCOPED_TRACE(from);
+    damage(from);
+    char header[16] = {};
+    std::ifstream(db, std::ios::binary).read(header, sizeof header);
+    ASSERT_EQ(std::string(header, 15), "SQLite format 3");
+    auto refused = Gateway::Start(Options());
+    ASSERT_FALSE(refused.ok()) << "started on a damaged database";
+    EXPECT_EQ(refused.status().code(), absl::StatusCode::kDataLoss) << refused.status();
+    const std::string message(refused.status().message());
+    EXPECT_EQ(message.rfind(prefix, 0), 0u) << message;
+    EXPECT_NE(message.find("restore it from a backup"), std::string::npos) << message;
+    if (from != 4096) {  // Open succeeds on this one: the check itself found it
+      EXPECT_NE(message.find("fails PRAGMA quick_check: "), std::string::npos) << message;
+    }
+  }
+  std::ofstream(db, std::ios::binary | std::ios::trunc)
+      .write(original.data(), static_cast<std::streamsize>(size));
+  auto again = Gateway::Start(Options());
+  EXPECT_TRUE(again.ok()) << again.status();
+}
+
+// Gap 14: a data_dir that is a file is named as such (not "cannot create: File exists").
+TEST_F(GatewayE2eTest, Start_DataDirIsAFile_FailedPreconditionNamingIt) {
+  gw_.reset();
+  const std::string file = data_dir_ + "/not-a-dir";
+  std::ofstream(file) << "x";
+  GatewayOptions o = Options();
+  o.config.data_dir = file;
+  auto refused = Gateway::Start(o);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(refused.status().message(),
+            "data_dir: '" + file + "' exists and is not a directory");
+}
+
 TEST_F(GatewayE2eTest, Rest_StoberDemoAxis_EnablesAndMovesTo25Mm) {
   // CANopen node 3 on the demo's CANopen bus (issue 5; decision 409): 1 u = 1 mm.
   ASSERT_NE(gw_->demo_stober_simulator(), nullptr);

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes the seed corpora of tests/fuzz/corpus/<target>/ for the targets that have no hand-made
-corpus (decision 1401): config, rest, rest_body, ws_query, transport, linmot_linudp, linmot_mc,
-linmot_curve, stober, parameter_set, curve_set.
+corpus (decision 1401): config, rest, rest_body, ws_query, http_request, transport, linmot_linudp,
+linmot_mc, linmot_curve, stober, parameter_set, curve_set.
 
 Seeds come from the inputs the unit tests use: string literals, raw strings and byte lists are
 read out of the named test sources (and the shipped example configs), then framed the way each
@@ -208,6 +208,44 @@ def ws_query_seeds():
     return [("ws_query_test", t.encode()) for t in unique(targets)]
 
 
+def http_request_seeds():
+    """Whole requests as clients send them (split byte first: 0 = one read), from the REST
+    server tests' raw requests and client calls, with Authorization variants ("@TOKEN@" is the
+    fuzz target's live token)."""
+    text = strip_comments(src("tests/server/rest/server_test.cpp"))
+    raw = [s for s in string_literals(text) if "\r\n" in s and " " in s]
+    paths = [p.decode() for p in rest_paths()[:24]]
+    auths = ["", "Bearer @TOKEN@", "bearer   @TOKEN@", "Bearer @TOKEN@x", "Basic YWxhZGRpbjpv",
+             "Bearer dgw_0123456789abcdef_AAAA", "Bearer", "Bearer dgw_", "BEARER @TOKEN@ "]
+    reqs = list(raw)
+    for i, path in enumerate(paths):
+        auth = auths[i % len(auths)]
+        head = f"GET {path} HTTP/1.1\r\nHost: gw\r\n"
+        if auth:
+            head += f"Authorization: {auth}\r\n"
+        reqs.append(head + "\r\n")
+    body = '{"position_mm": 10, "velocity_mm_s": 10, "acceleration_mm_s2": 100}'
+    for auth in auths:
+        reqs.append(f"POST /v1/drives/x1:moveAbsolute HTTP/1.1\r\nHost: gw\r\n"
+                    f"Authorization: {auth}\r\nContent-Type: application/json\r\n"
+                    f"Content-Length: {len(body)}\r\n\r\n{body}")
+    reqs += ["POST /v1/parameterSets HTTP/1.1\r\nHost: gw\r\nTransfer-Encoding: chunked\r\n\r\n"
+             "4\r\n{}  \r\n0\r\n\r\n",
+             "POST /v1/curveSets HTTP/1.1\r\nContent-Length: 2000000\r\n\r\n{}",
+             "GET / HTTP/1.1\r\nX-Big: " + "a" * 17000 + "\r\n\r\n",
+             "GET /v1/drives HTTP/1.1\r\nHost: gw\r\n\r\nGET /v1/drives HTTP/1.1\r\n\r\n",
+             "GET /v1/drives HTTP/1.0\r\n\r\n",
+             "GET /v1/drives:ws HTTP/1.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+             "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"]
+    seeds = []
+    for i, r in enumerate(unique(reqs)):
+        data = r.encode("latin-1")
+        seeds.append(("server_test", bytes([0]) + data))
+        if len(data) > 8:  # the same request in two reads, split inside the head
+            seeds.append(("server_test", bytes([(i * 37 + 5) % 251 + 1]) + data))
+    return seeds
+
+
 def transport_seeds():
     seeds = []
     frames = [(0x605, bytes.fromhex("4041600000000000")), (0x185, bytes.fromhex("3706a08601")),
@@ -316,6 +354,7 @@ TARGETS = {
     "rest": rest_seeds,
     "rest_body": rest_body_seeds,
     "ws_query": ws_query_seeds,
+    "http_request": http_request_seeds,
     "transport": transport_seeds,
     "linmot_linudp": linmot_linudp_seeds,
     "linmot_mc": linmot_mc_seeds,

@@ -6,6 +6,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <variant>
 
@@ -154,6 +155,69 @@ TEST_F(ApiRoundTripTest, GrpcMoveCoordinated_OkAndUnimplemented) {
     grpc::Status s = stub->MoveCoordinated(&ctx, req, &resp);
     EXPECT_EQ(s.error_code(), grpc::StatusCode::UNIMPLEMENTED) << s.error_message();
   }
+}
+
+// Gap 6: NaN and infinities reach MoveAbsolute as JSON strings over REST ("NaN", "Infinity",
+// proto3 JSON) and as doubles over gRPC; both are refused at the server layer naming the field,
+// and the drive is never called.
+TEST_F(ApiRoundTripTest, MoveAbsolute_NonFinite_RefusedOnBothFrontEndsNamingTheField) {
+  struct Case {
+    const char* body;
+    const char* field;
+    const char* text;
+  };
+  const Case cases[] = {
+      {R"({"position_mm": "NaN", "velocity_mm_s": 10, "acceleration_mm_s2": 100})",
+       "move_absolute.position_mm", "nan is not a finite number"},
+      {R"({"position_mm": "-Infinity", "velocity_mm_s": 10, "acceleration_mm_s2": 100})",
+       "move_absolute.position_mm", "-inf is not a finite number"},
+      {R"({"position_mm": 10, "velocity_mm_s": "Infinity", "acceleration_mm_s2": 100})",
+       "move_absolute.velocity_mm_s", "inf is not a finite number"},
+      {R"({"position_mm": 10, "velocity_mm_s": 10, "acceleration_mm_s2": "NaN"})",
+       "move_absolute.acceleration_mm_s2", "nan is not a finite number"},
+      {R"({"position_mm": 10, "velocity_mm_s": 10, "acceleration_mm_s2": 100,
+           "deceleration_mm_s2": -5})",
+       "move_absolute.deceleration_mm_s2", "-5 must not be negative"},
+  };
+  for (const Case& c : cases) {
+    const auto r = Post("/v1/drives/lin1:moveAbsolute", c.body);
+    EXPECT_EQ(r.status, 400) << c.body << " -> " << r.body;
+    const auto j = Json(r);
+    EXPECT_EQ(j["details"][0]["field_violations"][0]["field"], c.field) << r.body;
+    EXPECT_THAT(j["message"].get<std::string>(), HasSubstr(c.text)) << r.body;
+  }
+  auto stub = GrpcStub();
+  v1::MoveAbsoluteRequest req;
+  req.set_name("drives/lin1");
+  req.set_position_mm(std::numeric_limits<double>::quiet_NaN());
+  req.set_velocity_mm_s(10);
+  req.set_acceleration_mm_s2(100);
+  grpc::ClientContext ctx;
+  v1::CommandHandle h;
+  grpc::Status s = stub->MoveAbsolute(&ctx, req, &h);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(s.error_message(), "move_absolute.position_mm: nan is not a finite number");
+  EXPECT_EQ(lin1_.moves(), 0);
+}
+
+// Gap 5: a native command request without any command is a 400 / INVALID_ARGUMENT naming the
+// oneof `command`; nothing reaches the drive.
+TEST_F(ApiRoundTripTest, SendNativeCommand_EmptyOneof_RefusedNamingCommand) {
+  const auto r = Post("/v1/drives/lin1:sendNativeCommand", "{}");
+  EXPECT_EQ(r.status, 400) << r.body;
+  const auto j = Json(r);
+  EXPECT_EQ(j["details"][0]["field_violations"][0]["field"], "command") << r.body;
+  EXPECT_THAT(j["message"].get<std::string>(), HasSubstr("command: one of linmot_motion,"));
+  auto stub = GrpcStub();
+  v1::SendNativeCommandRequest req;
+  req.set_name("drives/st1");
+  grpc::ClientContext ctx;
+  v1::NativeCommandResponse resp;
+  grpc::Status s = stub->SendNativeCommand(&ctx, req, &resp);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(s.error_message(), HasSubstr("is required"));
+  EXPECT_FALSE(lin1_.native().has_value());
+  EXPECT_FALSE(st1_.native().has_value());
 }
 
 }  // namespace

@@ -230,6 +230,36 @@ TEST_F(AuditServiceTest, Export_FiltersAndStopsWhenTheSinkRefuses) {
   EXPECT_EQ(n, 3);
 }
 
+// Gap 14: Export checks its time filters like List does, before anything is streamed.
+TEST_F(AuditServiceTest, Export_BadTimes_InvalidArgumentNamingTheFieldNothingStreamed) {
+  AppendOrDie(MakeEntry("x1", "Enable"));
+  int streamed = 0;
+  auto sink = [&](const v1::AuditEvent&) {
+    ++streamed;
+    return true;
+  };
+  auto never = [] { return false; };
+  v1::ExportAuditEventsRequest r;
+  r.set_start_time("2024-13-01T00:00:00Z");
+  absl::Status s = core_->ExportAuditEvents(r, ctx_, sink, never);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(s.message(), HasSubstr("start_time: timestamp: '2024-13-01T00:00:00Z' is not UTC "
+                                     "ISO-8601 (YYYY-MM-DDTHH:MM:SS.mmmZ)"));
+  r.Clear();
+  r.set_end_time("tomorrow");
+  s = core_->ExportAuditEvents(r, ctx_, sink, never);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(s.message(), HasSubstr("end_time: timestamp: 'tomorrow'"));
+  r.Clear();
+  r.set_start_time("2024-05-01T12:00:00Z");
+  r.set_end_time("2024-05-01T12:00:00Z");
+  s = core_->ExportAuditEvents(r, ctx_, sink, never);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(s.message(), HasSubstr("end_time: '2024-05-01T12:00:00Z' is not after start_time "
+                                     "'2024-05-01T12:00:00Z'"));
+  EXPECT_EQ(streamed, 0);
+}
+
 TEST_F(AuditServiceTest, Verify_ReportsTheFirstBrokenLinkAndIsAudited) {
   AppendMix();
   auto ok = core_->VerifyAuditLog({}, ctx_);

@@ -115,6 +115,50 @@ TEST_F(DriveHealthCoreTest, Down_StopStillReachesTheDrive) {
   EXPECT_EQ(x1_.moves(), 1);
 }
 
+// Decision 1491: a cyclic stream moves the axis like a move does, so a DOWN drive refuses it
+// before the family's StartCyclic is called; nothing is started and the refusal is audited.
+TEST_F(DriveHealthCoreTest, Down_CyclicStreamRefusedBeforeTheFamilyStartsIt) {
+  x1_.SetCyclic(true);
+  x1_.SetHealthInfo(Down());
+  v1::CyclicSetpointRequest first;
+  first.set_name("drives/x1");
+  first.set_mode(v1::CYCLIC_POSITION);
+  auto stream = core_->StartCyclicSetpoints(first, ctx_);
+  ASSERT_FALSE(stream.ok());
+  EXPECT_EQ(stream.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_EQ(stream.status().message(),
+            "drive 'x1' is DOWN since 2026-12-07T05:12:03Z (3 consecutive time-outs): "
+            "stream_cyclic_setpoints refused");
+  EXPECT_EQ(x1_.calls(), 0) << "StartCyclic reached the family of a DOWN drive";
+  EXPECT_FALSE(x1_.cyclic().has_value());
+  auto records = audit_->Query({});
+  ASSERT_TRUE(records.ok());
+  auto it = std::find_if(records->begin(), records->end(), [](const storage::AuditRecord& a) {
+    return a.action == kCyclicAuditAction;
+  });
+  ASSERT_NE(it, records->end());
+  EXPECT_EQ(it->result_code, static_cast<int>(absl::StatusCode::kUnavailable));
+
+  // The same stream starts once the drive is no longer DOWN.
+  HealthInfo up = Down();
+  up.state = HealthState::kUp;
+  x1_.SetHealthInfo(up);
+  stream = core_->StartCyclicSetpoints(first, ctx_);
+  ASSERT_TRUE(stream.ok()) << stream.status();
+  EXPECT_EQ(x1_.calls(), 1);
+}
+
+// Decision 1431, kept by 1491: native commands are diagnostics on a failing link, never refused.
+TEST_F(DriveHealthCoreTest, Down_NativeCommandStillReachesTheDrive) {
+  x1_.SetHealthInfo(Down());
+  v1::SendNativeCommandRequest r;
+  r.set_name("x1");
+  r.mutable_linmot_rtc()->set_command_id(0x10);
+  absl::StatusOr<v1::NativeCommandResponse> reply = core_->SendNativeCommand(r, ctx_);
+  EXPECT_TRUE(reply.ok()) << reply.status();
+  EXPECT_TRUE(x1_.native().has_value());
+}
+
 TEST_F(DriveHealthCoreTest, UpDemotedOrNoHealth_CallsGoThrough) {
   EXPECT_TRUE(MoveAbsolute().ok());  // no health reported (a family without supervision)
   HealthInfo h = Down();

@@ -84,6 +84,54 @@ TEST(ValidateMoveRelative, NonFiniteDistanceAndDynamicsNamed) {
                 "move_relative.deceleration_mm_s2: -1 must not be negative");
 }
 
+v1::MoveAbsoluteRequest Absolute(double position, double v = 100, double a = 1000, double d = 0) {
+  v1::MoveAbsoluteRequest r;
+  r.set_name("drives/x1");
+  r.set_position_mm(position);
+  r.set_velocity_mm_s(v);
+  r.set_acceleration_mm_s2(a);
+  r.set_deceleration_mm_s2(d);
+  return r;
+}
+
+// Gap 6: NaN and ±inf in every MoveAbsolute field, and a negative deceleration, are refused at the
+// server layer naming the field (no adapter is needed to catch them).
+TEST(ValidateMoveAbsolute, NonFiniteAndNegativeNamed) {
+  ExpectRefused(ValidateMoveAbsolute(Absolute(kNaN), Axis()).status(),
+                absl::StatusCode::kInvalidArgument,
+                "move_absolute.position_mm: nan is not a finite number");
+  ExpectRefused(ValidateMoveAbsolute(Absolute(kInf), Axis()).status(),
+                absl::StatusCode::kInvalidArgument,
+                "move_absolute.position_mm: inf is not a finite number");
+  ExpectRefused(ValidateMoveAbsolute(Absolute(-kInf), Axis()).status(),
+                absl::StatusCode::kInvalidArgument,
+                "move_absolute.position_mm: -inf is not a finite number");
+  ExpectRefused(ValidateMoveAbsolute(Absolute(10, kNaN), Axis()).status(),
+                absl::StatusCode::kInvalidArgument,
+                "move_absolute.velocity_mm_s: nan is not a finite number");
+  ExpectRefused(ValidateMoveAbsolute(Absolute(10, kInf), Axis()).status(),
+                absl::StatusCode::kInvalidArgument,
+                "move_absolute.velocity_mm_s: inf is not a finite number");
+  ExpectRefused(ValidateMoveAbsolute(Absolute(10, 100, kNaN), Axis()).status(),
+                absl::StatusCode::kInvalidArgument,
+                "move_absolute.acceleration_mm_s2: nan is not a finite number");
+  ExpectRefused(ValidateMoveAbsolute(Absolute(10, 100, -kInf), Axis()).status(),
+                absl::StatusCode::kInvalidArgument,
+                "move_absolute.acceleration_mm_s2: -inf is not a finite number");
+  ExpectRefused(ValidateMoveAbsolute(Absolute(10, 100, 1000, kInf), Axis()).status(),
+                absl::StatusCode::kInvalidArgument,
+                "move_absolute.deceleration_mm_s2: inf is not a finite number");
+  ExpectRefused(ValidateMoveAbsolute(Absolute(10, 100, 1000, -1), Axis()).status(),
+                absl::StatusCode::kInvalidArgument,
+                "move_absolute.deceleration_mm_s2: -1 must not be negative");
+  ExpectRefused(ValidateMoveAbsolute(Absolute(-0.5), Axis()).status(),
+                absl::StatusCode::kOutOfRange,
+                "move_absolute.position_mm: -0.5 is below axis min_mm 0");
+  auto ok = ValidateMoveAbsolute(Absolute(200, 500, 5000, 0), Axis());  // every limit itself
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  EXPECT_DOUBLE_EQ(std::get<MoveAbsolute>(*ok).deceleration_mm_s2, 5000);  // 0 = acceleration
+}
+
 v1::MoveVelocityRequest Velocity(double v, double a = 1000, double d = 0) {
   v1::MoveVelocityRequest r;
   r.set_name("drives/x1");
@@ -207,6 +255,18 @@ TEST(ValidateNative, LinMotDeviceNetRangesNamed) {
   c->set_value(-32769);
   ExpectRefused(ValidateNative(r).status(), absl::StatusCode::kInvalidArgument,
                 "linmot_devicenet.value: -32769 is outside");
+}
+
+// Gap 5: a SendNativeCommandRequest with no command at all names the oneof and lists its members.
+TEST(ValidateNative, EmptyOneof_InvalidArgumentNamingCommand) {
+  v1::SendNativeCommandRequest r;
+  r.set_name("drives/x1");
+  const absl::Status s = ValidateNative(r).status();
+  ExpectRefused(s, absl::StatusCode::kInvalidArgument,
+                "command: one of linmot_motion, linmot_rtc, linmot_devicenet, trinamic, "
+                "trinamic_tunnel, stober, canopen_sdo is required");
+  // The family check leaves the missing command to ValidateNative instead of naming a family.
+  EXPECT_TRUE(ValidateNativeFamily(r, "linmot").ok());
 }
 
 }  // namespace

@@ -43,6 +43,11 @@ class CurveDrive final : public Drive {
     std::lock_guard lock(mu_);
     fail_next_ = std::move(s);
   }
+  // The health GetStatus reports (default none, as for a family without supervision).
+  void SetHealthInfo(std::optional<HealthInfo> health) {
+    std::lock_guard lock(mu_);
+    health_ = std::move(health);
+  }
 
   absl::Status DownloadCurve(const LinMotParametricCurve& curve) override {
     if (!stores_curves_) return Drive::DownloadCurve(curve);
@@ -88,7 +93,12 @@ class CurveDrive final : public Drive {
   absl::StatusOr<NativeReply> SendNative(const NativeRequest&) override {
     return absl::UnimplementedError("fake");
   }
-  DriveStatus GetStatus() const override { return DriveStatus{}; }
+  DriveStatus GetStatus() const override {
+    std::lock_guard lock(mu_);
+    DriveStatus s;
+    s.health = health_;
+    return s;
+  }
   std::optional<CommandInfo> GetCommand(uint64_t) const override { return std::nullopt; }
   DriveStatus WaitForStatus(uint64_t, std::chrono::steady_clock::time_point) const override {
     return DriveStatus{};
@@ -102,6 +112,7 @@ class CurveDrive final : public Drive {
   std::vector<LinMotParametricCurve> downloads_;
   std::vector<Run> runs_;
   std::optional<absl::Status> fail_next_;
+  std::optional<HealthInfo> health_;
 };
 
 }  // namespace drivegw::server::test_support

@@ -187,6 +187,32 @@ TEST_F(CurveSetServiceTest, CreateGetListUpdateVersions_RoundTripAndNewVersion) 
             absl::StatusCode::kInvalidArgument);
 }
 
+// Gap 14 (decision 1494): a page token List cannot have handed out is refused naming page_token.
+TEST_F(CurveSetServiceTest, ListMalformedPageToken_InvalidArgumentNamingTheRule) {
+  Create("a", {Parabola("lift")});
+  Create("b", {Parabola("lift")});
+  v1::ListCurveSetsRequest r;
+  r.set_page_token("curveSets/a");
+  auto bad = core_->ListCurveSets(r, ctx_);
+  ASSERT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(Fields(bad.status()), ElementsAre("page_token"));
+  EXPECT_THAT(Msg(bad.status()), HasSubstr("'curveSets/a' is not a token this service handed out "
+                                           "(character at index 9;"));
+  r.set_page_token(std::string(300, 'z'));
+  EXPECT_THAT(Msg(core_->ListCurveSets(r, ctx_).status()),
+              HasSubstr("page_token: 300 bytes exceed 128"));
+  r.set_page_size(1);
+  r.clear_page_token();
+  auto first = core_->ListCurveSets(r, ctx_);
+  ASSERT_TRUE(first.ok()) << first.status();
+  EXPECT_EQ(first->next_page_token(), "a");
+  r.set_page_token(first->next_page_token());
+  auto second = core_->ListCurveSets(r, ctx_);
+  ASSERT_TRUE(second.ok()) << second.status();
+  ASSERT_EQ(second->curve_sets_size(), 1);
+  EXPECT_EQ(second->curve_sets(0).name(), "curveSets/b");
+}
+
 TEST_F(CurveSetServiceTest, UpdateDelete_StaleOrMissingEtag_RefusedWithEtagDetail) {
   const v1::CurveSet created = Create("press", {Parabola("lift")});
   v1::UpdateCurveSetRequest u;
@@ -416,6 +442,93 @@ TEST_F(CurveSetServiceTest, RunAndDownload_FamilyWithout_FailedPreconditionNamin
   auto entries = Audit("DownloadCurve");
   ASSERT_EQ(entries.size(), 1u);
   EXPECT_EQ(entries[0].result_code, static_cast<int>(absl::StatusCode::kFailedPrecondition));
+}
+
+// Decision 1491: a DOWN drive refuses a curve run (it moves the axis) and a download (it writes
+// the drive) with the UNAVAILABLE of decision 1431, before the family is called; both audited.
+TEST_F(CurveSetServiceTest, RunAndDownload_DriveDown_UnavailableNothingSentAudited) {
+  Create("press", {Parabola("lift")});
+  HealthInfo down;
+  down.state = HealthState::kDown;
+  down.since = std::chrono::sys_days{std::chrono::year{2026} / 12 / 7} + std::chrono::hours(5);
+  down.consecutive_failures = 3;
+  down.reason = "3 consecutive time-outs";
+  x1_->SetHealthInfo(down);
+  v1::RunCurveRequest r;
+  r.set_drive("x1");
+  r.set_name("press");
+  r.set_curve("lift");
+  auto run = core_->RunCurve(r, ctx_);
+  ASSERT_EQ(run.status().code(), absl::StatusCode::kUnavailable) << run.status();
+  EXPECT_EQ(Msg(run.status()),
+            "drive 'x1' is DOWN since 2026-12-07T05:00:00Z (3 consecutive time-outs): run_curve "
+            "refused");
+  v1::DownloadCurveRequest d;
+  d.set_drive("x1");
+  d.set_name("press");
+  d.set_curve("lift");
+  d.set_linmot_curve_id(7);
+  auto dl = core_->DownloadCurve(d, ctx_);
+  ASSERT_EQ(dl.status().code(), absl::StatusCode::kUnavailable) << dl.status();
+  EXPECT_THAT(Msg(dl.status()), HasSubstr(": download_curve refused"));
+  EXPECT_TRUE(x1_->runs().empty());
+  EXPECT_TRUE(x1_->downloads().empty());
+  auto runs = Audit("RunCurve");
+  ASSERT_EQ(runs.size(), 1u);
+  EXPECT_EQ(runs[0].result_code, static_cast<int>(absl::StatusCode::kUnavailable));
+  auto downloads = Audit("DownloadCurve");
+  ASSERT_EQ(downloads.size(), 1u);
+  EXPECT_EQ(downloads[0].result_code, static_cast<int>(absl::StatusCode::kUnavailable));
+
+  // A request that can never be valid is named as such even on a DOWN drive.
+  r.set_start_tolerance_mm(-1);
+  EXPECT_EQ(core_->RunCurve(r, ctx_).status().code(), absl::StatusCode::kInvalidArgument);
+
+  down.state = HealthState::kDemoted;  // recovering: calls go through again
+  x1_->SetHealthInfo(down);
+  r.set_start_tolerance_mm(0);
+  EXPECT_TRUE(core_->RunCurve(r, ctx_).ok());
+  EXPECT_TRUE(core_->DownloadCurve(d, ctx_).ok());
+  EXPECT_EQ(x1_->runs().size(), 1u);
+  EXPECT_EQ(x1_->downloads().size(), 1u);
+}
+
+// Gap 14 (docs/reliability.md): a negative start tolerance or version names the field, the value
+// and the limit; nothing runs.
+TEST_F(CurveSetServiceTest,
+       RunCurve_NegativeToleranceOrVersion_InvalidArgumentNamingFieldAndLimit) {
+  Create("press", {Parabola("lift")});
+  v1::RunCurveRequest r;
+  r.set_drive("s1");
+  r.set_name("press");
+  r.set_curve("lift");
+  r.set_start_tolerance_mm(-0.5);
+  auto run = core_->RunCurve(r, ctx_);
+  ASSERT_EQ(run.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(Msg(run.status()), "start_tolerance_mm: -0.5 is not a finite value >= 0");
+  EXPECT_THAT(Fields(run.status()), ElementsAre("start_tolerance_mm"));
+  r.set_start_tolerance_mm(std::nan(""));
+  EXPECT_EQ(core_->RunCurve(r, ctx_).status().code(), absl::StatusCode::kInvalidArgument);
+
+  r.set_start_tolerance_mm(0);
+  r.set_version(-2);
+  run = core_->RunCurve(r, ctx_);
+  ASSERT_EQ(run.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(Msg(run.status()), "version: -2 is below 0");
+  EXPECT_THAT(Fields(run.status()), ElementsAre("version"));
+  EXPECT_TRUE(s1_->runs().empty());
+
+  v1::GetCurveSetVersionRequest g;
+  g.set_name("press");
+  g.set_version(-1);
+  auto v = core_->GetCurveSetVersion(g, ctx_);
+  ASSERT_EQ(v.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(Msg(v.status()), "version: -1 is below 1");
+  v1::GetCurvePlotRequest p;
+  p.set_name("press");
+  p.set_curve("lift");
+  p.set_version(-1);
+  EXPECT_EQ(Msg(core_->GetCurvePlot(p, ctx_).status()), "version: -1 is below 0");
 }
 
 TEST_F(CurveSetServiceTest, DownloadCurve_PositionTime_LinMotWireFormHashAudited) {

@@ -305,6 +305,61 @@ TEST_F(ParameterSetServiceTest, ListPagesByName) {
   EXPECT_THAT(Msg(core_->ListParameterSets(r, ctx_).status()), HasSubstr("0..1000"));
 }
 
+// Gap 14 (decision 1494): a page token List cannot have handed out is refused naming page_token
+// and the rule, instead of paging from wherever the bytes sort.
+TEST_F(ParameterSetServiceTest, ListMalformedPageToken_InvalidArgumentNamingTheRule) {
+  for (const char* n : {"a", "b"}) Create(n, {{"p1", 1}});
+  v1::ListParameterSetsRequest r;
+  r.set_page_token("a' OR 1=1 --");
+  auto bad = core_->ListParameterSets(r, ctx_);
+  ASSERT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(Msg(bad.status()),
+            "page_token: 'a' OR 1=1 --' is not a token this service handed out (character at "
+            "index 1; a token is the last set name of a page: 1..128 characters of "
+            "[A-Za-z0-9._-])");
+  r.set_page_token(std::string(129, 'a'));
+  EXPECT_EQ(Msg(core_->ListParameterSets(r, ctx_).status()),
+            "page_token: 129 bytes exceed 128 (a token is the last set name of a page: 1..128 "
+            "characters of [A-Za-z0-9._-])");
+  r.set_page_token(std::string("a\0b", 3));
+  EXPECT_EQ(core_->ListParameterSets(r, ctx_).status().code(), absl::StatusCode::kInvalidArgument);
+  // A well-formed token of a set deleted since is still a position: the page after it.
+  r.set_page_token("a0");
+  auto after = core_->ListParameterSets(r, ctx_);
+  ASSERT_TRUE(after.ok()) << after.status();
+  ASSERT_EQ(after->parameter_sets_size(), 1);
+  EXPECT_EQ(after->parameter_sets(0).name(), "parameterSets/b");
+}
+
+// Gap 14: a negative version names its own field and the limit, whether the set exists or not.
+TEST_F(ParameterSetServiceTest, NegativeVersions_InvalidArgumentNamingFieldAndLimit) {
+  Create("a", {{"p1", 1}});
+  v1::ExportParameterSetRequest e;
+  e.set_name("a");
+  e.set_version(-3);
+  e.set_format(v1::PARAMETER_SET_FORMAT_JSON);
+  EXPECT_EQ(Msg(core_->ExportParameterSet(e, ctx_).status()), "version: -3 is below 0");
+  e.set_name("missing");
+  EXPECT_EQ(Msg(core_->ExportParameterSet(e, ctx_).status()), "version: -3 is below 0");
+  v1::DiffParameterSetRequest d;
+  d.set_name("a");
+  d.set_other_version(-1);
+  auto diff = core_->DiffParameterSet(d, ctx_);
+  EXPECT_EQ(diff.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(Msg(diff.status()), "other_version: -1 is below 0");
+  v1::GetParameterSetVersionRequest g;
+  g.set_name("a");
+  g.set_version(-1);
+  EXPECT_EQ(Msg(core_->GetParameterSetVersion(g, ctx_).status()), "version: -1 is below 1");
+  v1::ApplyParameterSetRequest a;
+  a.set_name("a");
+  a.add_drives("x1");
+  a.set_version(-2);
+  auto applied = core_->ApplyParameterSet(a, ctx_);
+  EXPECT_EQ(applied.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(Msg(applied.status()), "version: -2 is below 0");
+}
+
 TEST_F(ParameterSetServiceTest, CaptureNewSetThenNewVersion) {
   x1_->WriteParameter(ParameterRef{2, false}, 222).IgnoreError();
   v1::CaptureParameterSetRequest c;
