@@ -590,6 +590,10 @@ TEST(StoberFactory, ChecksNameTheField) {
   EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
               HasSubstr("canopen.sync_period"));
   c.canopen.sync_period = 2ms;
+  c.canopen.sdo_retries = 11;
+  EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
+              HasSubstr("canopen.sdo_retries: 11 is outside 0..10"));
+  c.canopen.sdo_retries = 2;
   c.axis.max_mm = 3e6;
   EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
               HasSubstr("axis.max_mm"));
