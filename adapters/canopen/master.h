@@ -132,8 +132,13 @@ struct MasterCounters {
   uint64_t frames_out = 0;   // every frame handed to the channel successfully
   uint64_t send_errors = 0;  // Send failures
   uint64_t receive_errors = 0;
-  uint64_t other_traffic = 0;  // frames for nobody here (other masters, nodes' SDO requests, ...)
-  uint64_t malformed = 0;      // EMCY / heartbeat frames that do not decode
+  // Frames for nobody here: other masters, nodes' SDO requests, extended-ID frames (CANopen uses
+  // 11-bit identifiers), remote frames on a TPDO or error-control identifier (decision 1482).
+  uint64_t other_traffic = 0;
+  uint64_t error_frames = 0;  // error frames the controller reported (also in other_traffic)
+  // EMCY / heartbeat frames that do not decode: wrong DLC, a state byte that is no NMT state,
+  // an EMCY as remote frame (decision 1482).
+  uint64_t malformed = 0;
   uint64_t nmt_sent = 0;
   uint64_t sdo_transfers = 0;        // completed successfully
   uint64_t sdo_failures = 0;         // completed with an error (any cause)

@@ -274,6 +274,14 @@ absl::Status FaultyChannel::Send(const transport::CanFrame& frame) {
 absl::StatusOr<std::optional<transport::CanFrame>> FaultyChannel::Receive(
     std::chrono::nanoseconds timeout) {
   if (faults_->fail_receive.load()) return absl::InternalError("injected receive failure");
+  {
+    std::lock_guard lock(faults_->inject_mu);
+    if (!faults_->inject.empty()) {
+      const transport::CanFrame f = faults_->inject.front();
+      faults_->inject.pop_front();
+      return std::optional<transport::CanFrame>(f);
+    }
+  }
   return inner_->Receive(timeout);
 }
 

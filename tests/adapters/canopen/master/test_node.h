@@ -7,6 +7,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -141,6 +142,14 @@ class RecordingObserver final : public NodeObserver {
 
 // Faults shared by every FaultyChannel of one test (the master reopens new ones).
 struct Faults {
+  // Frames Receive returns before the bus's (error frames come from the controller, never over
+  // the bus); call the master's Wake() after adding.
+  void Inject(const transport::CanFrame& frame) {
+    std::lock_guard lock(inject_mu);
+    inject.push_back(frame);
+  }
+  std::mutex inject_mu;
+  std::deque<transport::CanFrame> inject;
   std::atomic<bool> fail_receive{false};
   std::atomic<int> state{-1};  // -1: the inner channel's state, else a CanBusState
   std::atomic<int> opened{0};
