@@ -125,23 +125,43 @@ TEST(CanopenMasterSdoRetry, ExhaustedRetriesEndWithTheErrorNamingObjectAndNode) 
   EXPECT_EQ(c.sdo_failures, 1u);
 }
 
+// Node 5 holds its requests: an upload of 6041h runs and an upload of `second` waits behind it.
+// Ready once the first was retried (initiate, abort, initiate held): nothing answered yet.
+struct TwoUploads {
+  TwoUploads(Bench& bench, uint16_t second) : b(bench) {
+    b.node->Set(0x6041, 0, {0x37, 0x02});
+    b.node->SetHolding(true);
+    a = std::thread([this] { first_result = b.master->Upload(5, 0x6041, 0, Far()); });
+    ready = WaitFor([&] { return b.node->held() == 1; });
+    q = std::thread([this, second] { second_result = b.master->Upload(5, second, 0, Far()); });
+    ready = ready && WaitFor([&] { return b.node->held() >= 3; });
+  }
+  ~TwoUploads() {
+    b.node->Release();
+    Join();
+  }
+  void Join() {
+    if (a.joinable()) a.join();
+    if (q.joinable()) q.join();
+  }
+  Bench& b;
+  bool ready = false;
+  std::thread a, q;
+  absl::StatusOr<std::vector<uint8_t>> first_result = absl::UnknownError("not run");
+  absl::StatusOr<std::vector<uint8_t>> second_result = absl::UnknownError("not run");
+};
+
 // The node answers late: the first try's answer arrives after the retry went out. It completes
 // the transfer (same object, same value); the retry's answer then arrives while the next
 // transfer runs and must neither be taken for its answer nor fail it.
 TEST(CanopenMasterSdoRetry, LateAnswerToAnEarlierTryIsNotTakenForTheNextTransfer) {
   Bench b(300ms, 5);
   ASSERT_NE(b.master, nullptr);
-  b.node->Set(0x6041, 0, {0x37, 0x02});
   b.node->Set(0x1000, 0, {0x92, 0x01, 0x02, 0x00});
-  b.node->SetHolding(true);
-  absl::StatusOr<uint16_t> first = absl::UnknownError("not run");
-  absl::StatusOr<uint32_t> second = absl::UnknownError("not run");
-  std::thread a([&] { first = b.master->ReadU16(5, 0x6041, 0, Far()); });
-  ASSERT_TRUE(WaitFor([&] { return b.node->held() == 1; }));
-  std::thread q([&] { second = b.master->ReadU32(5, 0x1000, 0, Far()); });  // queued behind
-  // Initiate, abort, initiate again: release both initiates' answers at once. The second read's
-  // request is held until they are out, so the late answer is on the bus before its own.
-  ASSERT_TRUE(WaitFor([&] { return b.node->held() >= 3; }));
+  TwoUploads t(b, 0x1000);
+  ASSERT_TRUE(t.ready);
+  // Both initiates' answers at once; the second upload's request is held until they are out, so
+  // the late answer is on the bus before its own.
   b.node->Release(/*keep_holding=*/true);
   ASSERT_TRUE(WaitFor([&] {
     const auto f = b.node->frames_with_id(0x605);
@@ -149,12 +169,11 @@ TEST(CanopenMasterSdoRetry, LateAnswerToAnEarlierTryIsNotTakenForTheNextTransfer
            f.back().data[2] == 0x10;
   }));
   b.node->Release();
-  a.join();
-  q.join();
-  ASSERT_TRUE(first.ok()) << first.status();
-  EXPECT_EQ(*first, 0x0237);
-  ASSERT_TRUE(second.ok()) << second.status();
-  EXPECT_EQ(*second, 0x00020192u);
+  t.Join();
+  ASSERT_TRUE(t.first_result.ok()) << t.first_result.status();
+  EXPECT_THAT(*t.first_result, ElementsAre(0x37, 0x02));
+  ASSERT_TRUE(t.second_result.ok()) << t.second_result.status();
+  EXPECT_THAT(*t.second_result, ElementsAre(0x92, 0x01, 0x02, 0x00));
   const MasterCounters c = b.master->counters();
   EXPECT_GE(c.sdo_stale_responses, 1u);
   EXPECT_EQ(c.sdo_failures, 0u);
@@ -166,20 +185,13 @@ TEST(CanopenMasterSdoRetry, LateAnswerToAnEarlierTryIsNotTakenForTheNextTransfer
 TEST(CanopenMasterSdoRetry, SameObjectAfterARetryWaitsOutTheLateAnswer) {
   Bench b(300ms, 5);
   ASSERT_NE(b.master, nullptr);
-  b.node->Set(0x6041, 0, {0x37, 0x02});
-  b.node->SetHolding(true);
-  absl::StatusOr<uint16_t> first = absl::UnknownError("not run");
-  absl::StatusOr<uint16_t> second = absl::UnknownError("not run");
-  std::thread a([&] { first = b.master->ReadU16(5, 0x6041, 0, Far()); });
-  ASSERT_TRUE(WaitFor([&] { return b.node->held() == 1; }));
-  std::thread q([&] { second = b.master->ReadU16(5, 0x6041, 0, Far()); });
-  ASSERT_TRUE(WaitFor([&] { return b.node->held() >= 3; }));
+  TwoUploads t(b, 0x6041);
+  ASSERT_TRUE(t.ready);
   b.node->Release();
-  a.join();
-  q.join();
-  ASSERT_TRUE(first.ok()) << first.status();
-  ASSERT_TRUE(second.ok()) << second.status();
-  EXPECT_EQ(*second, 0x0237);
+  t.Join();
+  ASSERT_TRUE(t.first_result.ok()) << t.first_result.status();
+  ASSERT_TRUE(t.second_result.ok()) << t.second_result.status();
+  EXPECT_THAT(*t.second_result, ElementsAre(0x37, 0x02));
   // Every initiate was answered: one answer completed the first read, one the second (its own
   // initiate, the last one); all others are late answers to the first read's earlier tries.
   const std::vector<uint8_t> commands = Commands(*b.node, 0x605);

@@ -17,6 +17,7 @@
 #include "adapters/stober/factory.h"
 #include "adapters/stober/object_map.h"
 #include "sim/stober/server.h"
+#include "tests/adapters/stober/test_axis.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::stober {
@@ -43,15 +44,7 @@ std::unique_ptr<ss::AxisServer> StartNode(const CanBusConfig& bus, uint8_t node)
 
 std::unique_ptr<StoberDrive> StartDrive(const CanBusConfig& bus, const char* name, uint8_t node) {
   DriveConfig c;
-  c.name = name;
-  c.family = kFamilyName;
-  c.can = bus;
-  c.node_id = node;
-  c.axis.min_mm = -200;
-  c.axis.max_mm = 200;
-  c.axis.max_velocity_mm_s = 1000;
-  c.axis.max_acceleration_mm_s2 = 10000;
-  c.canopen.heartbeat = 50ms;
+  SetTestAxis(c, name, bus, node);
   c.canopen.heartbeat_timeout = 200ms;
   c.canopen.sdo_timeout = 100ms;
   auto drive = CreateStoberDrive(c, SteadyClock::Instance());

@@ -26,6 +26,7 @@
 #include "adapters/stober/param_id.h"
 #include "adapters/transport/impaired_can_channel.h"
 #include "sim/stober/server.h"
+#include "tests/adapters/stober/test_axis.h"
 #include "tests/support/lossy_link.h"
 #include "tests/support/wait_status.h"
 
@@ -77,15 +78,7 @@ class StoberFaultTest : public ::testing::Test {
     server_->WithAxis([](ss::MotionCore& c) { c.SetReferenced(true); });
 
     DriveConfig c;
-    c.name = "st1";
-    c.family = kFamilyName;
-    c.can = bus;
-    c.node_id = kNode;
-    c.axis.min_mm = -200;
-    c.axis.max_mm = 200;
-    c.axis.max_velocity_mm_s = 1000;
-    c.axis.max_acceleration_mm_s2 = 10000;
-    c.canopen.heartbeat = 50ms;
+    SetTestAxis(c, "st1", bus, kNode);
     // 10 % loss each way plus held (reordered) frames and a loaded host: 10 periods, so the
     // consumer does not take the node offline by chance (it did at 4 periods in one run).
     c.canopen.heartbeat_timeout = 500ms;
