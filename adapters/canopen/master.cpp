@@ -450,7 +450,10 @@ void CanopenMaster::BusRestoredLocked(TimePoint now) {
 
 void CanopenMaster::HandleFrameLocked(const transport::CanFrame& frame, TimePoint now) {
   if (frame.error || frame.extended) {
-    ++counters_.other_traffic;  // CANopen uses 11-bit identifiers only (cob_id.h)
+    // CANopen uses 11-bit identifiers only (cob_id.h); an error frame's identifier holds error
+    // class bits, not a COB-ID. Neither is looked at further (decision 1482).
+    ++counters_.other_traffic;
+    if (frame.error) ++counters_.error_frames;
     return;
   }
   if (!frame.rtr) {

@@ -40,6 +40,10 @@ namespace drivegw::canopen {
 struct MasterOptions {
   // Per frame exchange: request sent → response received (decision 1103).
   Duration sdo_timeout = kSdoDefaultTimeout;
+  // Bounded SDO retry (decision 1481): a retriable transfer (every upload; a download the caller
+  // marks SdoRetry::kIdempotent) that got no response within sdo_timeout is aborted (0504 0000h,
+  // CiA 301 §7.2.4.3.17) and started over from its initiate up to this many times. 0: one try.
+  int sdo_retries = 0;
   size_t sdo_max_size = kSdoDefaultMaxSize;  // largest upload accepted (decision 1103)
   // Back-off while the bus is off, down or the channel is broken: doubling from min to max
   // (decision 1117).
@@ -49,6 +53,11 @@ struct MasterOptions {
   // producer always runs on the steady clock (decision 1116).
   const Clock* clock = &SteadyClock::Instance();
 };
+
+// May a download be repeated after a time-out (MasterOptions::sdo_retries)? Only when writing
+// the same bytes twice leaves the node as writing them once: not for command objects such as
+// 1010h "save" or a manufacturer's trigger (decision 1481). Uploads are always retriable.
+enum class SdoRetry : uint8_t { kNo, kIdempotent };
 
 // What a node observer is told besides heartbeats, EMCY and PDOs.
 enum class NodeEvent : uint8_t {
@@ -123,8 +132,13 @@ struct MasterCounters {
   uint64_t frames_out = 0;   // every frame handed to the channel successfully
   uint64_t send_errors = 0;  // Send failures
   uint64_t receive_errors = 0;
-  uint64_t other_traffic = 0;  // frames for nobody here (other masters, nodes' SDO requests, ...)
-  uint64_t malformed = 0;      // EMCY / heartbeat frames that do not decode
+  // Frames for nobody here: other masters, nodes' SDO requests, extended-ID frames (CANopen uses
+  // 11-bit identifiers), remote frames on a TPDO or error-control identifier (decision 1482).
+  uint64_t other_traffic = 0;
+  uint64_t error_frames = 0;  // error frames the controller reported (also in other_traffic)
+  // EMCY / heartbeat frames that do not decode: wrong DLC, a state byte that is no NMT state,
+  // an EMCY as remote frame (decision 1482).
+  uint64_t malformed = 0;
   uint64_t nmt_sent = 0;
   uint64_t sdo_transfers = 0;        // completed successfully
   uint64_t sdo_failures = 0;         // completed with an error (any cause)
@@ -132,7 +146,12 @@ struct MasterCounters {
   uint64_t sdo_aborts_sent = 0;      // our abort frames (protocol violation, timeout, deadline)
   uint64_t sdo_timeouts = 0;         // per-frame time-outs and caller deadlines
   uint64_t sdo_unexpected = 0;       // SDO responses while no transfer of the node was running
-  uint64_t sdo_queued_max = 0;       // most transfers waiting behind one node's active one
+  uint64_t sdo_retries = 0;          // transfers started over after a time-out (decision 1481)
+  // With sdo_retries > 0: initiate answers and aborts naming another object than the running
+  // transfer's while it waits for its initiate answer — a late answer to an earlier try, or a
+  // duplicate — ignored rather than failing it (decision 1481).
+  uint64_t sdo_stale_responses = 0;
+  uint64_t sdo_queued_max = 0;  // most transfers waiting behind one node's active one
   uint64_t rpdo_sent = 0;
   // Synchronous RPDOs (decision 1118): frames held for a later SYNC cycle because the same RPDO
   // had already gone out in the current one, and held frames discarded (SYNC stopped, send
@@ -188,24 +207,25 @@ class CanopenMaster {
   // including the wait behind other transfers of the node; each frame exchange is bounded by
   // options.sdo_timeout. Errors name node and index:sub; server aborts carry the code
   // (AbortCodeOf) and its name, time-outs are DeadlineExceeded after abort 0504 0000h was sent.
+  // Uploads, and downloads marked kIdempotent, are retried after a time-out (sdo_retries).
   absl::StatusOr<std::vector<uint8_t>> Upload(uint8_t node, uint16_t index, uint8_t sub,
                                               TimePoint deadline);
   absl::Status Download(uint8_t node, uint16_t index, uint8_t sub, std::span<const uint8_t> data,
-                        TimePoint deadline);
+                        TimePoint deadline, SdoRetry retry = SdoRetry::kNo);
   // Typed little-endian access. Reads accept exactly the width, or more bytes when the extra
   // ones are zero (an unsized expedited answer carries 4 bytes, decision 1112).
   absl::StatusOr<uint8_t> ReadU8(uint8_t node, uint16_t index, uint8_t sub, TimePoint deadline);
   absl::StatusOr<uint16_t> ReadU16(uint8_t node, uint16_t index, uint8_t sub, TimePoint deadline);
   absl::StatusOr<uint32_t> ReadU32(uint8_t node, uint16_t index, uint8_t sub, TimePoint deadline);
   absl::StatusOr<int32_t> ReadI32(uint8_t node, uint16_t index, uint8_t sub, TimePoint deadline);
-  absl::Status WriteU8(uint8_t node, uint16_t index, uint8_t sub, uint8_t value,
-                       TimePoint deadline);
+  absl::Status WriteU8(uint8_t node, uint16_t index, uint8_t sub, uint8_t value, TimePoint deadline,
+                       SdoRetry retry = SdoRetry::kNo);
   absl::Status WriteU16(uint8_t node, uint16_t index, uint8_t sub, uint16_t value,
-                        TimePoint deadline);
+                        TimePoint deadline, SdoRetry retry = SdoRetry::kNo);
   absl::Status WriteU32(uint8_t node, uint16_t index, uint8_t sub, uint32_t value,
-                        TimePoint deadline);
+                        TimePoint deadline, SdoRetry retry = SdoRetry::kNo);
   absl::Status WriteI32(uint8_t node, uint16_t index, uint8_t sub, int32_t value,
-                        TimePoint deadline);
+                        TimePoint deadline, SdoRetry retry = SdoRetry::kNo);
 
   // --- PDO (decision 1113). Runs MappingWrites (decision 1107) as SDO downloads in order; the
   // first failure stops it and names the step. Afterwards TPDO frames on the configured COB-ID
@@ -276,6 +296,8 @@ class CanopenMaster {
     TimePoint frame_deadline{};  // the current exchange's
     TimePoint started_at{};      // first frame sent
     bool started = false;
+    int retries_left = 0;  // further tries after a time-out (decision 1481)
+    int tries = 1;
     absl::StatusOr<std::vector<uint8_t>> result = std::vector<uint8_t>();
     // 0 until `result` is final (stored with release after it). The caller waits on this word
     // alone, not on a condition variable bound to mu_: the completing receive thread holds mu_,
@@ -293,6 +315,11 @@ class CanopenMaster {
     Heartbeat heartbeat;
     std::optional<NmtState> nmt;
     std::string family, drive;  // SetNodeLabel
+    // The object of the last transfer that needed more than one try: until late_until an answer
+    // to one of its earlier tries may still arrive, so a new transfer of the same object waits
+    // rather than take such an answer for its own (decision 1481).
+    std::optional<std::pair<uint16_t, uint8_t>> late_object;
+    TimePoint late_until{};
   };
   struct Notification {
     enum class Kind : uint8_t { kHeartbeat, kBootUp, kEmcy, kTpdo, kLink } kind = Kind::kLink;
@@ -325,7 +352,13 @@ class CanopenMaster {
 
   // SDO plumbing (master_sdo.cpp).
   absl::StatusOr<std::vector<uint8_t>> Transfer(uint8_t node, SdoClientTransfer transfer,
-                                                TimePoint deadline);
+                                                TimePoint deadline, bool retriable);
+  // The front transfer timed out and has tries left: starts it over (decision 1481).
+  void RetrySdoLocked(Node& n, TimePoint now);
+  // With retries on: a response naming another object than the waiting front transfer's.
+  bool IsStaleSdoAnswerLocked(const Node& n, const transport::CanFrame& frame) const;
+  // The front transfer waits for late answers to a retried transfer of its object.
+  bool WaitsForLateAnswersLocked(const Node& n, TimePoint now) const;
   void ApplySdoStepLocked(Node& n, SdoStep step, TimePoint now);
   // Expires queued and active transfers; returns the node's next SDO deadline (or `next`).
   TimePoint ServiceSdoLocked(Node& n, TimePoint now, TimePoint next);

@@ -130,7 +130,11 @@ absl::Status CanopenMaster::SetHeartbeatConsumer(uint8_t node, Duration consumer
 absl::Status CanopenMaster::ConfigureHeartbeatProducer(uint8_t node, uint16_t period_ms,
                                                        TimePoint deadline) {
   // CiA 301 §7.5.2.20: 1017h u16 producer heartbeat time in ms, 0 = off.
-  if (absl::Status s = WriteU16(node, 0x1017, 0, period_ms, deadline); !s.ok()) return s;
+  // Values, not commands: repeating a write after a time-out is harmless (decision 1481).
+  if (absl::Status s = WriteU16(node, 0x1017, 0, period_ms, deadline, SdoRetry::kIdempotent);
+      !s.ok()) {
+    return s;
+  }
   absl::StatusOr<uint16_t> back = ReadU16(node, 0x1017, 0, deadline);
   if (!back.ok()) return back.status();
   if (*back != period_ms) {
@@ -149,7 +153,8 @@ absl::Status CanopenMaster::ConfigureErrorBehaviour(uint8_t node, ErrorBehaviour
     return absl::InvalidArgumentError(
         absl::StrCat("canopen node ", node, " 1029h sub 0: the entry count, not a behaviour"));
   }
-  return WriteU8(node, 0x1029, sub, static_cast<uint8_t>(behaviour), deadline);
+  return WriteU8(node, 0x1029, sub, static_cast<uint8_t>(behaviour), deadline,
+                 SdoRetry::kIdempotent);
 }
 
 }  // namespace drivegw::canopen

@@ -28,7 +28,10 @@ absl::Status CanopenMaster::ConfigurePdo(uint8_t node, PdoKind kind, uint16_t nu
   const char* name = kind == PdoKind::kTpdo ? "tpdo" : "rpdo";
   for (size_t i = 0; i < writes->size(); ++i) {
     const SdoWrite& w = (*writes)[i];
-    if (absl::Status s = Download(node, w.index, w.sub, w.data, deadline); !s.ok()) {
+    // Each write sets one value the sequence needs at that point; repeating it in place is
+    // harmless (decision 1481).
+    if (absl::Status s = Download(node, w.index, w.sub, w.data, deadline, SdoRetry::kIdempotent);
+        !s.ok()) {
       // CiA 301 §7.2.2.4: the PDO stays invalid (bit 31 set by write 1) until the sequence ends.
       return AnnotateStatus(
           s, absl::StrFormat("canopen configure %s%d of node %d, write %d of %d "

@@ -1,6 +1,7 @@
 // CanopenMaster SDO client: one transfer per node at a time, the others queued in call order
 // (CiA 301 v4.2.0 §7.2.4.1: one SDO channel per client/server pair; decision 1112), per-exchange
-// time-outs with abort 0504 0000h (decision 1103), typed helpers and PDO configuration.
+// time-outs with abort 0504 0000h (decision 1103), bounded retry of idempotent transfers
+// (decision 1481), typed helpers and PDO configuration.
 #include <algorithm>
 #include <utility>
 
@@ -23,6 +24,8 @@ std::string Describe(const SdoClientTransfer& t, uint8_t node) {
                          t.sub(), node);
 }
 
+std::pair<uint16_t, uint8_t> ObjectOf(const SdoClientTransfer& t) { return {t.index(), t.sub()}; }
+
 std::vector<uint8_t> LittleEndian(uint64_t value, size_t bytes) {
   std::vector<uint8_t> out(bytes);
   for (size_t i = 0; i < bytes; ++i) out[i] = static_cast<uint8_t>(value >> (8 * i));
@@ -38,7 +41,7 @@ std::string CanopenMaster::SdoRequest::context() const { return Describe(transfe
 
 absl::StatusOr<std::vector<uint8_t>> CanopenMaster::Transfer(uint8_t node,
                                                              SdoClientTransfer transfer,
-                                                             TimePoint deadline) {
+                                                             TimePoint deadline, bool retriable) {
   // The "sdo upload 0x6041:00 node 5" context is formatted only for an error: formatting costs
   // about a microsecond, on the path from one answer to the next request (decision 1321).
   if (OnReceiveThread()) {
@@ -49,6 +52,7 @@ absl::StatusOr<std::vector<uint8_t>> CanopenMaster::Transfer(uint8_t node,
   auto request = std::make_shared<SdoRequest>(std::move(transfer));
   request->node = node;
   request->deadline = deadline;
+  request->retries_left = retriable ? std::max(options_.sdo_retries, 0) : 0;
   std::unique_lock lock(mu_);
   if (stopping_) {
     return absl::FailedPreconditionError(
@@ -65,8 +69,10 @@ absl::StatusOr<std::vector<uint8_t>> CanopenMaster::Transfer(uint8_t node,
       std::max<uint64_t>(counters_.sdo_queued_max, static_cast<uint64_t>(n.sdo.size() - 1));
   PumpSdoLocked(n, clock_.Now());
   if (request->done.load(std::memory_order_relaxed) == 0) {
-    const TimePoint next =
-        request->started ? std::min(request->frame_deadline, deadline) : deadline;
+    TimePoint next = request->started ? std::min(request->frame_deadline, deadline) : deadline;
+    if (!request->started && WaitsForLateAnswersLocked(n, clock_.Now())) {
+      next = std::min(next, n.late_until);
+    }
     if (next < planned_wake_) {
       planned_wake_ = next;
       WakeReceiver();  // lock order mu_ → channel_mu_
@@ -90,6 +96,7 @@ void CanopenMaster::PumpSdoLocked(Node& n, TimePoint now) {
                                           r.context()));
       continue;
     }
+    if (WaitsForLateAnswersLocked(n, now)) return;  // ServiceSdoLocked starts it at late_until
     r.started = true;
     r.started_at = now;
     const transport::CanFrame first = r.transfer.Start();
@@ -106,6 +113,12 @@ void CanopenMaster::PumpSdoLocked(Node& n, TimePoint now) {
 void CanopenMaster::CompleteSdoLocked(Node& n, absl::StatusOr<std::vector<uint8_t>> result) {
   std::shared_ptr<SdoRequest> r = n.sdo.front();
   n.sdo.pop_front();
+  if (r->tries > 1) {
+    // An earlier try's answer may still be on its way (decision 1481): for one more exchange
+    // time it is recognised by the object it names.
+    n.late_object = ObjectOf(r->transfer);
+    n.late_until = clock_.Now() + options_.sdo_timeout;
+  }
   if (result.ok()) {
     ++counters_.sdo_transfers;
     if (r->started && !n.drive.empty()) {
@@ -152,6 +165,10 @@ void CanopenMaster::ApplySdoStepLocked(Node& n, SdoStep step, TimePoint now) {
 void CanopenMaster::HandleSdoResponseLocked(uint8_t node, const transport::CanFrame& frame,
                                             TimePoint now) {
   auto it = nodes_.find(node);
+  if (it != nodes_.end() && IsStaleSdoAnswerLocked(it->second, frame)) {
+    ++counters_.sdo_stale_responses;
+    return;
+  }
   if (it == nodes_.end() || it->second.sdo.empty() || !it->second.sdo.front()->started) {
     // Late (after its time-out), another client's, or a node answering nobody (decision 1112).
     ++counters_.sdo_unexpected;
@@ -188,6 +205,10 @@ TimePoint CanopenMaster::ServiceSdoLocked(Node& n, TimePoint now, TimePoint next
     keep->done.store(1, std::memory_order_release);
     keep->done.notify_one();
   }
+  if (!n.sdo.empty() && !n.sdo.front()->started) {
+    PumpSdoLocked(n, now);  // the front may have waited for late answers (decision 1481)
+    if (WaitsForLateAnswersLocked(n, now)) next = std::min(next, n.late_until);
+  }
   if (n.sdo.empty() || !n.sdo.front()->started) return next;
   SdoRequest& r = *n.sdo.front();
   const bool caller = now >= r.deadline;
@@ -197,17 +218,69 @@ TimePoint CanopenMaster::ServiceSdoLocked(Node& n, TimePoint now, TimePoint next
   ++counters_.sdo_timeouts;
   ++counters_.sdo_aborts_sent;
   if (step.frame) SendFrame(*step.frame).IgnoreError();
-  const std::string detail =
-      caller ? "the caller's deadline passed during the transfer"
-             : absl::StrCat("no response within ", Ms(options_.sdo_timeout), " ms");
-  // SdoAbortStatus maps 0504 0000h to DeadlineExceeded and keeps the code (decision 1104).
-  CompleteSdoLocked(n, SdoAbortStatus(SdoAbortCode::kTimeout,
-                                      absl::StrCat(r.context(), ", ", detail, ": client aborted")));
+  if (!caller && r.retries_left > 0) {
+    RetrySdoLocked(n, now);
+  } else {
+    std::string detail = caller
+                             ? "the caller's deadline passed during the transfer"
+                             : absl::StrCat("no response within ", Ms(options_.sdo_timeout), " ms");
+    if (r.tries > 1) absl::StrAppend(&detail, " (", r.tries, " tries)");
+    // SdoAbortStatus maps 0504 0000h to DeadlineExceeded and keeps the code (decision 1104).
+    CompleteSdoLocked(n,
+                      SdoAbortStatus(SdoAbortCode::kTimeout,
+                                     absl::StrCat(r.context(), ", ", detail, ": client aborted")));
+  }
   PumpSdoLocked(n, now);
   if (!n.sdo.empty() && n.sdo.front()->started) {
     next = std::min({next, n.sdo.front()->deadline, n.sdo.front()->frame_deadline});
+  } else if (WaitsForLateAnswersLocked(n, now)) {
+    next = std::min(next, n.late_until);
   }
   return next;
+}
+
+void CanopenMaster::RetrySdoLocked(Node& n, TimePoint now) {
+  // The timed-out try was just aborted (0504 0000h), so a server in the middle of a segmented
+  // transfer is idle again; the retry is a new transfer of the same object from its initiate
+  // with toggle 0 (CiA 301 §7.2.4.3.17; decision 1481).
+  SdoRequest& r = *n.sdo.front();
+  --r.retries_left;
+  ++r.tries;
+  ++counters_.sdo_retries;
+  log::Debug("canopen_sdo_retry", log::Fields()
+                                      .Add("bus", bus_name_)
+                                      .Add("transfer", "\"" + r.context() + "\"")
+                                      .Add("try", r.tries));
+  r.frame_deadline = now + options_.sdo_timeout;
+  if (absl::Status s = SendFrame(r.transfer.Start()); !s.ok()) {
+    CompleteSdoLocked(
+        n, absl::UnavailableError(absl::StrCat(r.context(), ": send failed: ", s.message())));
+  }
+}
+
+bool CanopenMaster::WaitsForLateAnswersLocked(const Node& n, TimePoint now) const {
+  return !n.sdo.empty() && !n.sdo.front()->started && n.late_object && now < n.late_until &&
+         ObjectOf(n.sdo.front()->transfer) == *n.late_object;
+}
+
+bool CanopenMaster::IsStaleSdoAnswerLocked(const Node& n, const transport::CanFrame& frame) const {
+  // Decision 1105 fails a transfer whose answer names another object (0604 0043h). On a bus
+  // where frames get lost, retried or duplicated, such an answer is most likely one to an
+  // earlier transfer that arrived late: the running transfer keeps waiting for its own (and is
+  // retried if that never comes), so a stray frame costs neither transfer (decision 1481).
+  if (options_.sdo_retries <= 0 || n.sdo.empty() || !n.sdo.front()->started) return false;
+  const SdoClientTransfer& t = n.sdo.front()->transfer;
+  if (!t.awaiting_initiate() || frame.dlc != kSdoFrameSize || frame.extended || frame.rtr ||
+      frame.error) {
+    return false;
+  }
+  absl::StatusOr<SdoFrame> f = DecodeSdo(frame.payload(), SdoDirection::kResponse);
+  if (!f.ok() ||
+      (f->command != SdoCommand::kInitiateUpload && f->command != SdoCommand::kInitiateDownload &&
+       f->command != SdoCommand::kAbort)) {
+    return false;
+  }
+  return std::make_pair(f->index, f->sub) != ObjectOf(t);
 }
 
 void CanopenMaster::FailAllSdoLocked(const absl::Status& status) {
@@ -225,18 +298,20 @@ absl::StatusOr<std::vector<uint8_t>> CanopenMaster::Upload(uint8_t node, uint16_
                                                            uint8_t sub, TimePoint deadline) {
   absl::StatusOr<SdoChannel> channel = DefaultSdoChannel(node);
   if (!channel.ok()) return channel.status();
+  // An upload changes nothing on the node: always retriable (decision 1481).
   return Transfer(node, SdoClientTransfer::Upload(*channel, index, sub, options_.sdo_max_size),
-                  deadline);
+                  deadline, true);
 }
 
 absl::Status CanopenMaster::Download(uint8_t node, uint16_t index, uint8_t sub,
-                                     std::span<const uint8_t> data, TimePoint deadline) {
+                                     std::span<const uint8_t> data, TimePoint deadline,
+                                     SdoRetry retry) {
   absl::StatusOr<SdoChannel> channel = DefaultSdoChannel(node);
   if (!channel.ok()) return channel.status();
   return Transfer(node,
                   SdoClientTransfer::Download(*channel, index, sub,
                                               std::vector<uint8_t>(data.begin(), data.end())),
-                  deadline)
+                  deadline, retry == SdoRetry::kIdempotent)
       .status();
 }
 
@@ -292,23 +367,23 @@ absl::StatusOr<int32_t> CanopenMaster::ReadI32(uint8_t node, uint16_t index, uin
 }
 
 absl::Status CanopenMaster::WriteU8(uint8_t node, uint16_t index, uint8_t sub, uint8_t value,
-                                    TimePoint deadline) {
-  return Download(node, index, sub, LittleEndian(value, 1), deadline);
+                                    TimePoint deadline, SdoRetry retry) {
+  return Download(node, index, sub, LittleEndian(value, 1), deadline, retry);
 }
 
 absl::Status CanopenMaster::WriteU16(uint8_t node, uint16_t index, uint8_t sub, uint16_t value,
-                                     TimePoint deadline) {
-  return Download(node, index, sub, LittleEndian(value, 2), deadline);
+                                     TimePoint deadline, SdoRetry retry) {
+  return Download(node, index, sub, LittleEndian(value, 2), deadline, retry);
 }
 
 absl::Status CanopenMaster::WriteU32(uint8_t node, uint16_t index, uint8_t sub, uint32_t value,
-                                     TimePoint deadline) {
-  return Download(node, index, sub, LittleEndian(value, 4), deadline);
+                                     TimePoint deadline, SdoRetry retry) {
+  return Download(node, index, sub, LittleEndian(value, 4), deadline, retry);
 }
 
 absl::Status CanopenMaster::WriteI32(uint8_t node, uint16_t index, uint8_t sub, int32_t value,
-                                     TimePoint deadline) {
-  return Download(node, index, sub, LittleEndian(static_cast<uint32_t>(value), 4), deadline);
+                                     TimePoint deadline, SdoRetry retry) {
+  return Download(node, index, sub, LittleEndian(static_cast<uint32_t>(value), 4), deadline, retry);
 }
 
 }  // namespace drivegw::canopen

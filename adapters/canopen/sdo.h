@@ -28,6 +28,9 @@ inline constexpr size_t kSdoExpeditedMax = 4;  // data bytes 4..7 of an initiate
 inline constexpr size_t kSdoSegmentMax = 7;    // data bytes 1..7 of a segment
 // Runtime default for the SDO deadline per frame exchange (decision 1103).
 inline constexpr std::chrono::milliseconds kSdoDefaultTimeout{1000};
+// Upper bound of MasterOptions::sdo_retries / canopen.sdo_retries: beyond it a dead node holds its
+// SDO channel for many time-outs while nothing gets better (decision 1481).
+inline constexpr int kSdoMaxRetries = 10;
 // Default limit of one transfer's size, client upload and server download (decision 1103).
 inline constexpr size_t kSdoDefaultMaxSize = 64 * 1024;
 
@@ -195,7 +198,8 @@ class SdoClientTransfer {
   static SdoClientTransfer Download(const SdoChannel& channel, uint16_t index, uint8_t sub,
                                     std::vector<uint8_t> data);
 
-  // The first request (initiate upload / download). Call once.
+  // The first request (initiate upload / download). Called again after Timeout() or Cancel(), it
+  // starts the same transfer over from its initiate, toggle 0 (the master's retry, decision 1481).
   transport::CanFrame Start();
   // A received frame. Protocol violations (wrong toggle 0503 0000h, unexpected command 0504
   // 0001h, index/sub echo mismatch 0604 0043h, size mismatch 0607 0010h) fail the transfer with
@@ -213,6 +217,7 @@ class SdoClientTransfer {
   uint16_t index() const { return index_; }
   uint8_t sub() const { return sub_; }
   bool finished() const { return state_ == State::kFinished; }
+  bool awaiting_initiate() const { return state_ == State::kWaitInitiateResponse; }
 
  private:
   enum class State : uint8_t {

@@ -54,6 +54,7 @@ transport::CanFrame SdoClientTransfer::Start() {
   toggle_ = false;
   offset_ = 0;
   last_sent_ = false;
+  expected_.reset();  // Start() again after a time-out begins a new transfer (decision 1481)
   SdoFrame first;
   if (kind_ == SdoTransferKind::kUpload) {
     data_.clear();

@@ -90,6 +90,9 @@ struct CanOpenConfig {
   std::chrono::milliseconds heartbeat_timeout{350};  // consumer: missing longer -> OFFLINE
   std::chrono::milliseconds sync_period{2};          // SYNC producer period (cyclic set points)
   std::chrono::milliseconds sdo_timeout{1000};       // per SDO frame exchange (decision 1103)
+  // Repeats of an idempotent SDO transfer (uploads, configuration writes) that got no response
+  // within sdo_timeout, and of an NMT start without an OPERATIONAL heartbeat (decision 1481).
+  int sdo_retries = 3;
   // RPDO transmission type (CiA 301 1400h sub 2): 255 event-driven (applied on reception),
   // 0..240 synchronous (applied at the next SYNC; the SYNC producer then runs; decision 1119).
   uint8_t rpdo_transmission_type = 255;

@@ -109,6 +109,7 @@ absl::Status StoberDrive::DoActivate() {
   }
   co::MasterOptions options;
   options.sdo_timeout = config().canopen.sdo_timeout;
+  options.sdo_retries = config().canopen.sdo_retries;
   options.clock = &clock_;
   auto master = co::CanopenMasterPool::Instance().Acquire(*config().can, options);
   if (!master.ok()) return Annotate(master.status(), Prefix("Activate"));
@@ -220,29 +221,31 @@ absl::Status StoberDrive::Configure() {
     m = master_;
   }
   if (!m) return absl::FailedPreconditionError("no master");
-  const TimePoint deadline =
-      clock_.Now() + config().timeouts.request + config().canopen.sdo_timeout;
+  // Each step's own budget: timeouts.request plus every try of one transfer (decision 1481). One
+  // deadline for all ~30 transfers would run out under loss, where several of them need a retry.
+  const auto& c = config().canopen;
+  const Duration budget = config().timeouts.request + (1 + c.sdo_retries) * c.sdo_timeout;
+  auto deadline = [&] { return clock_.Now() + budget; };
   const std::string prefix = Prefix("configure");
-  auto sw = m->ReadU16(node_, 0x6041, 0, deadline);
+  auto sw = m->ReadU16(node_, 0x6041, 0, deadline());
   if (!sw.ok()) return Annotate(sw.status(), prefix + "node absent? ");
   auto step = [&](absl::Status s, const char* what) -> absl::Status {
     if (s.ok()) return s;
     return Annotate(s, absl::StrCat(prefix, what, ": "));
   };
   DGW_RETURN_IF_ERROR(step(m->SendNmt(co::NmtCommand::kEnterPreOperational, node_), "NMT"));
-  const auto& c = config().canopen;
   DGW_RETURN_IF_ERROR(step(
-      m->ConfigureHeartbeatProducer(node_, static_cast<uint16_t>(c.heartbeat.count()), deadline),
+      m->ConfigureHeartbeatProducer(node_, static_cast<uint16_t>(c.heartbeat.count()), deadline()),
       "1017h heartbeat producer"));
   // 1029h: a communication error takes the node to pre-operational, so no stale RPDO is applied
   // while the master is gone (decision 1194).
   DGW_RETURN_IF_ERROR(
-      step(m->ConfigureErrorBehaviour(node_, co::ErrorBehaviour::kPreOperational, deadline),
+      step(m->ConfigureErrorBehaviour(node_, co::ErrorBehaviour::kPreOperational, deadline()),
            "1029h error behaviour"));
   for (const PdoLayout& layout : DefaultPdoLayout()) {
     const co::PdoMapping mapping = layout.Mapping();
     DGW_RETURN_IF_ERROR(step(
-        m->ConfigurePdo(node_, layout.kind, layout.number, RpdoComm(layout), mapping, deadline),
+        m->ConfigurePdo(node_, layout.kind, layout.number, RpdoComm(layout), mapping, deadline()),
         layout.kind == co::PdoKind::kRpdo ? "RPDO" : "TPDO"));
   }
   // Synchronous RPDOs act only on SYNC: the bus's producer runs from now on (decision 1119).
@@ -252,7 +255,7 @@ absl::Status StoberDrive::Configure() {
   auto read = [&](CanOpenAddress a) -> absl::StatusOr<double> {
     auto b = FindBinding(a);
     if (!b.ok()) return b.status();
-    auto bytes = m->Upload(node_, a.index, a.sub_index, deadline);
+    auto bytes = m->Upload(node_, a.index, a.sub_index, deadline());
     if (!bytes.ok()) return bytes.status();
     return Decode(*b, *bytes);
   };
@@ -290,11 +293,11 @@ absl::Status StoberDrive::Configure() {
     DGW_ASSIGN_OR_RETURN(travel, param("I00"));
     DGW_ASSIGN_OR_RETURN(double plc, param("I89"));
     DGW_ASSIGN_OR_RETURN(double cause, param("I90"));
-    auto flags = m->ReadU32(node_, kStatusFlagsIndex, kStatusFlagsSub, deadline);
+    auto flags = m->ReadU32(node_, kStatusFlagsIndex, kStatusFlagsSub, deadline());
     if (!flags.ok()) return flags.status();
     DGW_ASSIGN_OR_RETURN(actual.position, read({0x6064, 0}));
     DGW_ASSIGN_OR_RETURN(actual.velocity, read({0x606C, 0}));
-    auto sw2 = m->ReadU16(node_, 0x6041, 0, deadline);
+    auto sw2 = m->ReadU16(node_, 0x6041, 0, deadline());
     if (!sw2.ok()) return sw2.status();
     status.status_word = *sw2;
     status.plc_state = static_cast<int>(plc);
@@ -317,20 +320,27 @@ absl::Status StoberDrive::Configure() {
     execute_low_at_ = clock_.Now();
     beats = heartbeats_;
   }
-  DGW_RETURN_IF_ERROR(step(m->SendNmt(co::NmtCommand::kStart, node_), "NMT start"));
   // Online only with a heartbeat reporting OPERATIONAL after the start (decision 1194): the
   // master's supervision starts with the first heartbeat, and one sent before the start was
-  // handled must not look like "left OPERATIONAL".
-  std::unique_lock lock(mu_);
-  const TimePoint hb_deadline = clock_.Now() + c.heartbeat_timeout;
-  if (!WaitLocked(lock, hb_deadline, [&] {
-        return heartbeats_ > beats && heartbeat_state_ == co::NmtState::kOperational;
-      })) {
-    return absl::UnavailableError(absl::StrCat(prefix, "no OPERATIONAL heartbeat within ",
-                                               c.heartbeat_timeout.count(),
-                                               " ms (canopen.heartbeat_timeout)"));
+  // handled must not look like "left OPERATIONAL". NMT is unconfirmed (CiA 301 §7.2.8.3.1) and
+  // "start" in OPERATIONAL changes nothing, so a start that brought no such heartbeat is sent
+  // again, canopen.sdo_retries times at most (decision 1481).
+  for (int tries = 1;; ++tries) {
+    DGW_RETURN_IF_ERROR(step(m->SendNmt(co::NmtCommand::kStart, node_), "NMT start"));
+    std::unique_lock lock(mu_);
+    const TimePoint hb_deadline = clock_.Now() + c.heartbeat_timeout;
+    if (WaitLocked(lock, hb_deadline, [&] {
+          return heartbeats_ > beats && heartbeat_state_ == co::NmtState::kOperational;
+        })) {
+      return absl::OkStatus();
+    }
+    if (tries > c.sdo_retries) {
+      return absl::UnavailableError(absl::StrCat(
+          prefix, "no OPERATIONAL heartbeat within ", c.heartbeat_timeout.count(),
+          " ms (canopen.heartbeat_timeout)",
+          tries > 1 ? absl::StrCat(" after each of ", tries, " NMT starts") : std::string()));
+    }
   }
-  return absl::OkStatus();
 }
 
 // ---------------------------------------------------------------- observer

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "absl/strings/str_cat.h"
+#include "adapters/canopen/sdo.h"
 #include "adapters/stober/drive.h"
 #include "adapters/stober/object_map.h"
 
@@ -55,6 +56,11 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateStoberDrive(const DriveConfig& conf
         {"sync_period", co.sync_period},
         {"sdo_timeout", co.sdo_timeout}}) {
     if (auto s = positive(field, v); !s.ok()) return s;
+  }
+  if (co.sdo_retries < 0 || co.sdo_retries > canopen::kSdoMaxRetries) {
+    return Bad(config, "canopen.sdo_retries",
+               absl::StrCat(co.sdo_retries, " is outside 0..", canopen::kSdoMaxRetries,
+                            " (repeats of a timed-out SDO transfer, decision 1481)"));
   }
   if (co.heartbeat.count() > 65535) {
     return Bad(config, "canopen.heartbeat",

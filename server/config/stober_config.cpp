@@ -11,6 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/canopen/pdo.h"
+#include "adapters/canopen/sdo.h"
 #include "adapters/stober/factory.h"
 #include "adapters/stober/object_map.h"
 #include "server/config/can_config.h"
@@ -81,13 +82,17 @@ void ParseCanOpen(const Section& s, CanOpenConfig& out) {
   if (node) {
     const Section c(*node, s.Child("canopen"),
                     {"heartbeat_ms", "heartbeat_timeout_ms", "sync_period_ms", "sdo_timeout_ms",
-                     "rpdo_transmission_type"},
+                     "sdo_retries", "rpdo_transmission_type"},
                     s.errors());
     if (node->IsNull() || node->IsMap()) {
       c.Millis("heartbeat_ms", kMaxHeartbeatMs, out.heartbeat);
       c.Millis("heartbeat_timeout_ms", kMaxHeartbeatMs, out.heartbeat_timeout);
       c.Millis("sync_period_ms", kMaxSyncPeriodMs, out.sync_period);
       c.Millis("sdo_timeout_ms", kMaxSdoTimeoutMs, out.sdo_timeout);
+      int64_t retries = out.sdo_retries;
+      if (c.Int("sdo_retries", 0, canopen::kSdoMaxRetries, retries)) {
+        out.sdo_retries = static_cast<int>(retries);
+      }
       ParseRpdoTransmissionType(c, out);
     }
   }

@@ -191,6 +191,30 @@ TEST_F(SdoTransferTest, ClientAbortsAWrongToggleWith05030000) {
   EXPECT_TRUE(up.finished());
 }
 
+// The master's retry (decision 1481): Start() after a time-out is a new transfer from the
+// initiate — toggle 0 again, no bytes kept, no announced size kept from the timed-out try.
+TEST_F(SdoTransferTest, StartAfterATimeoutBeginsTheTransferAgain) {
+  auto up = SdoClientTransfer::Upload(channel, 0x1008, 0);
+  EXPECT_EQ(FormatCanFrame(up.Start()), "605#4008100000000000");
+  ASSERT_EQ(up.OnFrame(Resp(0x585, InitiateUploadSegmented(0x1008, 0, 20))).kind,
+            SdoStep::Kind::kSend);
+  ASSERT_EQ(up.OnFrame(Resp(0x585, UploadSegment(false, Pattern(7), false))).kind,
+            SdoStep::Kind::kSend);
+  ASSERT_EQ(up.Timeout().kind, SdoStep::Kind::kFailed);  // the 2nd segment never came
+
+  EXPECT_EQ(FormatCanFrame(up.Start()), "605#4008100000000000");
+  EXPECT_FALSE(up.finished());
+  // This time the server indicates no size and sends 3 bytes in one segment.
+  SdoFrame unsized = InitiateUploadSegmented(0x1008, 0, 0);
+  unsized.size_indicated = false;
+  SdoStep step = up.OnFrame(Resp(0x585, unsized));
+  ASSERT_EQ(step.kind, SdoStep::Kind::kSend);
+  EXPECT_EQ(FormatCanFrame(*step.frame), "605#6000000000000000");  // toggle 0 again
+  step = up.OnFrame(Resp(0x585, UploadSegment(false, Pattern(3), true)));
+  ASSERT_EQ(step.kind, SdoStep::Kind::kDone) << step.status;
+  EXPECT_EQ(step.data, Pattern(3));
+}
+
 TEST_F(SdoTransferTest, ClientAbortsAWrongDownloadSegmentToggle) {
   auto down = SdoClientTransfer::Download(channel, 0x2000, 1, Pattern(10));
   down.Start();

@@ -18,6 +18,7 @@
 #include "adapters/stober/factory.h"
 #include "adapters/stober/object_map.h"
 #include "sim/stober/server.h"
+#include "tests/adapters/stober/test_axis.h"
 #include "tests/support/curve_run_checks.h"
 #include "tests/support/wait_status.h"
 
@@ -57,15 +58,7 @@ class StoberCurveTest : public ::testing::Test {
     auto server = ss::AxisServer::Start(o, SteadyClock::Instance());
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = std::move(*server);
-    config_.name = "st-curve";
-    config_.family = kFamilyName;
-    config_.can = bus_;
-    config_.node_id = kNode;
-    config_.axis.min_mm = -200;
-    config_.axis.max_mm = 200;
-    config_.axis.max_velocity_mm_s = 1000;
-    config_.axis.max_acceleration_mm_s2 = 10000;
-    config_.canopen.heartbeat = 50ms;
+    SetTestAxis(config_, "st-curve", bus_, kNode);
     config_.canopen.heartbeat_timeout = 200ms;
     config_.canopen.sdo_timeout = 300ms;
     config_.canopen.rpdo_transmission_type = RpdoTransmissionType();

@@ -75,13 +75,15 @@ TEST(StoberConfigTest, MinimalAxis_NodeIdBusAndCanOpenDefaults) {
   EXPECT_EQ(d.canopen.heartbeat_timeout, milliseconds(350));
   EXPECT_EQ(d.canopen.sync_period, milliseconds(2));
   EXPECT_EQ(d.canopen.sdo_timeout, milliseconds(1000));
+  EXPECT_EQ(d.canopen.sdo_retries, 3);  // decision 1481
   EXPECT_EQ(d.canopen.rpdo_transmission_type, 255);  // event-driven (decision 1119)
   EXPECT_EQ(d.axis.min_mm, -100);
 }
 
 TEST(StoberConfigTest, CanOpenKeys_Applied) {
   auto cfg = ParseConfig(With("node_id: 3", R"(node_id: 127
-    canopen: {heartbeat_ms: 50, heartbeat_timeout_ms: 200, sync_period_ms: 4, sdo_timeout_ms: 300})"));
+    canopen: {heartbeat_ms: 50, heartbeat_timeout_ms: 200, sync_period_ms: 4, sdo_timeout_ms: 300,
+              sdo_retries: 0})"));
   ASSERT_TRUE(cfg.ok()) << cfg.status();
   const DriveConfig& d = cfg->drives[0];
   EXPECT_EQ(d.node_id, std::optional<uint8_t>(127));
@@ -89,6 +91,7 @@ TEST(StoberConfigTest, CanOpenKeys_Applied) {
   EXPECT_EQ(d.canopen.heartbeat_timeout, milliseconds(200));
   EXPECT_EQ(d.canopen.sync_period, milliseconds(4));
   EXPECT_EQ(d.canopen.sdo_timeout, milliseconds(300));
+  EXPECT_EQ(d.canopen.sdo_retries, 0);
   // "canopen:" alone keeps every default.
   auto empty = ParseConfig(With("node_id: 3", "node_id: 1\n    canopen:"));
   ASSERT_TRUE(empty.ok()) << empty.status();
@@ -215,6 +218,10 @@ TEST(StoberConfigTest, CanOpen_EveryKeyBounded) {
               HasSubstr("drives[0].canopen.sdo_timeout_ms: 10001 exceeds 10000"));
   EXPECT_THAT(Message(with("{sdo_timeout_ms: 1s}")),
               HasSubstr("drives[0].canopen.sdo_timeout_ms: '1s' is not an integer"));
+  EXPECT_THAT(Message(with("{sdo_retries: 11}")),
+              HasSubstr("drives[0].canopen.sdo_retries: 11 exceeds 10"));
+  EXPECT_THAT(Message(with("{sdo_retries: -1}")),
+              HasSubstr("drives[0].canopen.sdo_retries: -1 is below 0"));
   EXPECT_THAT(Message(with("{sdo_timout_ms: 100}")),
               HasSubstr("drives[0].canopen.sdo_timout_ms: unknown key (did you mean "
                         "'sdo_timeout_ms'?)"));

@@ -72,15 +72,22 @@ void TestNode::SetHolding(bool holding) {
   holding_ = holding;
 }
 
-void TestNode::Release() {
+void TestNode::Release(bool keep_holding) {
   std::vector<transport::CanFrame> held;
   {
     std::lock_guard lock(mu_);
     held.swap(held_);
-    holding_ = false;
+    holding_ = keep_holding;
   }
   for (const auto& f : held) Answer(f);
 }
+
+void TestNode::DropRequests(int n) {
+  std::lock_guard lock(mu_);
+  drop_requests_ = n;
+}
+
+void TestNode::DropAnswers(int n) { drop_answers_.store(n); }
 
 size_t TestNode::held() const {
   std::lock_guard lock(mu_);
@@ -155,6 +162,10 @@ void TestNode::Answer(const transport::CanFrame& frame) {
     if ((ccs == 1 || ccs == 2) && server_.busy()) overlaps_.fetch_add(1);
     reply = server_.OnFrame(frame);
   }
+  if (reply && drop_answers_.load() > 0) {
+    drop_answers_.fetch_sub(1);
+    return;
+  }
   if (reply) Send(*reply);
 }
 
@@ -169,7 +180,9 @@ void TestNode::Run() {
       std::lock_guard lock(mu_);
       frames_.push_back(f);
       if (f.id == request_id && !f.rtr) {
-        if (holding_) {
+        if (drop_requests_ > 0) {
+          --drop_requests_;
+        } else if (holding_) {
           held_.push_back(f);
         } else {
           answer = !silent_;
@@ -261,6 +274,14 @@ absl::Status FaultyChannel::Send(const transport::CanFrame& frame) {
 absl::StatusOr<std::optional<transport::CanFrame>> FaultyChannel::Receive(
     std::chrono::nanoseconds timeout) {
   if (faults_->fail_receive.load()) return absl::InternalError("injected receive failure");
+  {
+    std::lock_guard lock(faults_->inject_mu);
+    if (!faults_->inject.empty()) {
+      const transport::CanFrame f = faults_->inject.front();
+      faults_->inject.pop_front();
+      return std::optional<transport::CanFrame>(f);
+    }
+  }
   return inner_->Receive(timeout);
 }
 

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -58,10 +59,15 @@ class TestNode final : public ObjectAccess {
   void AbortOn(uint16_t index, uint8_t sub, SdoAbortCode code);
   // Silent: SDO requests are logged and never answered.
   void SetSilent(bool silent);
-  // Holding: SDO requests are logged and kept; Release() answers them in order.
+  // Holding: SDO requests are logged and kept; Release() answers them in order (and holds the
+  // next ones too when `keep_holding`).
   void SetHolding(bool holding);
-  void Release();
+  void Release(bool keep_holding = false);
   size_t held() const;
+  // Lost frames (decision 1481's retry tests): the next `n` SDO requests are logged and never
+  // reach the server; the next `n` answers are computed (writes happen) and never sent.
+  void DropRequests(int n);
+  void DropAnswers(int n);
 
   // Every successful write, in order.
   std::vector<SdoWrite> writes() const;
@@ -99,6 +105,8 @@ class TestNode final : public ObjectAccess {
   std::vector<transport::CanFrame> held_;
   bool silent_ = false;
   bool holding_ = false;
+  int drop_requests_ = 0;
+  std::atomic<int> drop_answers_{0};
   std::atomic<uint64_t> overlaps_{0};
   std::atomic<bool> stop_{false};
   std::mutex server_mu_;  // the SdoServer: node thread and Release()
@@ -134,6 +142,14 @@ class RecordingObserver final : public NodeObserver {
 
 // Faults shared by every FaultyChannel of one test (the master reopens new ones).
 struct Faults {
+  // Frames Receive returns before the bus's (error frames come from the controller, never over
+  // the bus); call the master's Wake() after adding.
+  void Inject(const transport::CanFrame& frame) {
+    std::lock_guard lock(inject_mu);
+    inject.push_back(frame);
+  }
+  std::mutex inject_mu;
+  std::deque<transport::CanFrame> inject;
   std::atomic<bool> fail_receive{false};
   std::atomic<int> state{-1};  // -1: the inner channel's state, else a CanBusState
   std::atomic<int> opened{0};

@@ -17,6 +17,7 @@
 #include "adapters/transport/can_channel.h"
 #include "adapters/transport/can_frame.h"
 #include "sim/stober/server.h"
+#include "tests/adapters/stober/test_axis.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::stober {
@@ -66,15 +67,7 @@ class StoberDriveTest : public ::testing::Test {
       bus_.group = kGroup;
       bus_.port = RandomPort();
     }
-    config_.name = "st1";
-    config_.family = kFamilyName;
-    config_.can = bus_;
-    config_.node_id = kNode;
-    config_.axis.min_mm = -200;
-    config_.axis.max_mm = 200;
-    config_.axis.max_velocity_mm_s = 1000;
-    config_.axis.max_acceleration_mm_s2 = 10000;
-    config_.canopen.heartbeat = 50ms;
+    SetTestAxis(config_, "st1", bus_, kNode);
     config_.canopen.heartbeat_timeout = 200ms;
     config_.canopen.sdo_timeout = 300ms;
     config_.timeouts.homing = 5000ms;
@@ -590,6 +583,10 @@ TEST(StoberFactory, ChecksNameTheField) {
   EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
               HasSubstr("canopen.sync_period"));
   c.canopen.sync_period = 2ms;
+  c.canopen.sdo_retries = 11;
+  EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
+              HasSubstr("canopen.sdo_retries: 11 is outside 0..10"));
+  c.canopen.sdo_retries = 2;
   c.axis.max_mm = 3e6;
   EXPECT_THAT(std::string(CreateStoberDrive(c, SteadyClock::Instance()).status().message()),
               HasSubstr("axis.max_mm"));

@@ -5,6 +5,8 @@
 // judge: (a) no positioning started that the client did not request (a repeated RPDO or Execute
 // edge must not start a move twice, e.g. a relative move), (b) every DONE finished in the
 // simulator at its target, (c) after the loss stops the node is online and a move completes.
+// The configuration itself (about 30 SDO transfers) runs under the loss and completes within
+// kConfigureBound thanks to the bounded SDO retry (decision 1481).
 // A corrupt-mode run: DLC-cut frames are refused (counted) and never taken as a state.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -24,6 +26,7 @@
 #include "adapters/stober/param_id.h"
 #include "adapters/transport/impaired_can_channel.h"
 #include "sim/stober/server.h"
+#include "tests/adapters/stober/test_axis.h"
 #include "tests/support/lossy_link.h"
 #include "tests/support/wait_status.h"
 
@@ -34,6 +37,10 @@ using namespace std::chrono_literals;
 namespace ss = drivegw::sim::stober;
 
 constexpr auto kWait = 15s;  // generous: the host runs at load 6-10
+// Decision 1481: under 10 % loss each way about one exchange in five needs a retry (300 ms each
+// here) and a configuration fails only when one transfer loses four tries in a row; a few
+// seconds typically, bounded generously for the loaded host.
+constexpr auto kConfigureBound = 12s;
 constexpr char kGroup[] = "239.74.163.98";
 constexpr uint8_t kNode = 9;
 
@@ -71,15 +78,7 @@ class StoberFaultTest : public ::testing::Test {
     server_->WithAxis([](ss::MotionCore& c) { c.SetReferenced(true); });
 
     DriveConfig c;
-    c.name = "st1";
-    c.family = kFamilyName;
-    c.can = bus;
-    c.node_id = kNode;
-    c.axis.min_mm = -200;
-    c.axis.max_mm = 200;
-    c.axis.max_velocity_mm_s = 1000;
-    c.axis.max_acceleration_mm_s2 = 10000;
-    c.canopen.heartbeat = 50ms;
+    SetTestAxis(c, "st1", bus, kNode);
     // 10 % loss each way plus held (reordered) frames and a loaded host: 10 periods, so the
     // consumer does not take the node offline by chance (it did at 4 periods in one run).
     c.canopen.heartbeat_timeout = 500ms;
@@ -92,8 +91,10 @@ class StoberFaultTest : public ::testing::Test {
     auto drive = CreateStoberDrive(c, SteadyClock::Instance());
     ASSERT_TRUE(drive.ok()) << drive.status();
     drive_.reset(static_cast<StoberDrive*>(drive->release()));
+    const auto t0 = std::chrono::steady_clock::now();
     ASSERT_TRUE(drive_->Activate().ok());
     WaitOnline();
+    configure_time_ = std::chrono::steady_clock::now() - t0;
   }
   void WaitOnline() {
     const DriveStatus s = test_support::WaitStatus(
@@ -136,7 +137,8 @@ class StoberFaultTest : public ::testing::Test {
 
   std::unique_ptr<ss::AxisServer> server_;
   std::unique_ptr<StoberDrive> drive_;
-  transport::ImpairedCanChannel* link_ = nullptr;  // owned by server_
+  transport::ImpairedCanChannel* link_ = nullptr;         // owned by server_
+  std::chrono::steady_clock::duration configure_time_{};  // Activate → online
 };
 
 MotionCommand Abs(double mm) { return MoveAbsolute{mm, 500, 5000, 5000}; }
@@ -161,13 +163,20 @@ TEST_F(StoberFaultTest, TenPercentLossBothWays_NoUnrequestedMotion_NoFalseDone_R
                             .seed = 8};
   if (const char* e = std::getenv("DGW_FAULT_SPEC_IN")) in = *transport::ParseImpairment(e);
   if (const char* e = std::getenv("DGW_FAULT_SPEC_OUT")) out = *transport::ParseImpairment(e);
-  // Configuration (about 30 SDO transfers, decision 1194) runs loss-free: one lost exchange
-  // fails the whole configuration and the next attempt starts over, so under 10 % loss it
-  // practically never completes (finding, decision 1423). The loss starts once configured.
-  Start({}, {});
-  ASSERT_TRUE(link_->SetImpairment(out, in).ok());
-  std::printf("node receives: %s; node sends: %s\n", transport::ImpairmentString(in).c_str(),
-              transport::ImpairmentString(out).c_str());
+  // Configuration (about 30 SDO transfers, decision 1194) runs under the loss: a lost exchange
+  // is retried (canopen.sdo_retries, default 3; decision 1481) instead of failing the whole
+  // configuration, which before practically never completed (decision 1423 finding 1).
+  Start(in, out);
+  const auto configured_ms =
+      std::chrono::duration_cast<std::chrono::milliseconds>(configure_time_).count();
+  const auto before = *drive_->master_counters();
+  std::printf(
+      "configured under loss in %lld ms: %llu SDO transfers, %llu retries, %llu failed, "
+      "%llu configuration attempts failed\n",
+      static_cast<long long>(configured_ms), (unsigned long long)before.sdo_transfers,
+      (unsigned long long)before.sdo_retries, (unsigned long long)before.sdo_failures,
+      (unsigned long long)drive_->counters().configure_failures);
+  EXPECT_LT(configure_time_, kConfigureBound);
   EnableUnderLoss();
   // Each step is absolute or relative; the expected target of a relative one is the position
   // the simulator really reached last. A move may end ERROR under loss (decision 1207: the node
@@ -229,13 +238,15 @@ TEST_F(StoberFaultTest, TenPercentLossBothWays_NoUnrequestedMotion_NoFalseDone_R
   std::printf(
       "node received: dropped %llu duplicated %llu reordered %llu of %llu; node sent: dropped "
       "%llu duplicated %llu reordered %llu of %llu; master sdo ok %llu failed %llu timeouts %llu "
-      "rpdo %llu tpdo %llu heartbeat lost %llu; drive execute retries %llu configurations %llu\n",
+      "retries %llu stale %llu rpdo %llu tpdo %llu heartbeat lost %llu; drive execute retries "
+      "%llu configurations %llu\n",
       (unsigned long long)ic.receive.dropped, (unsigned long long)ic.receive.duplicated,
       (unsigned long long)ic.receive.reordered, (unsigned long long)ic.receive.decided,
       (unsigned long long)ic.send.dropped, (unsigned long long)ic.send.duplicated,
       (unsigned long long)ic.send.reordered, (unsigned long long)ic.send.decided,
       (unsigned long long)mc->sdo_transfers, (unsigned long long)mc->sdo_failures,
-      (unsigned long long)mc->sdo_timeouts, (unsigned long long)mc->rpdo_sent,
+      (unsigned long long)mc->sdo_timeouts, (unsigned long long)mc->sdo_retries,
+      (unsigned long long)mc->sdo_stale_responses, (unsigned long long)mc->rpdo_sent,
       (unsigned long long)mc->tpdo_received, (unsigned long long)mc->heartbeat_lost,
       (unsigned long long)dc.execute_retries, (unsigned long long)dc.configurations);
   EXPECT_GT(ic.receive.dropped, 0u);

@@ -16,6 +16,7 @@
 #include "adapters/core/drive.h"
 #include "adapters/stober/factory.h"
 #include "sim/stober/server.h"
+#include "tests/adapters/stober/test_axis.h"
 #include "tests/support/wait_status.h"
 
 namespace drivegw::stober {
@@ -54,16 +55,8 @@ class StoberVcanTest : public ::testing::Test {
     server_ = std::move(*server);
 
     DriveConfig c;
-    c.name = "sv1";
-    c.family = kFamilyName;
-    c.can = KernelBus(iface_);
-    c.node_id = kNode;
-    c.axis.min_mm = -200;
-    c.axis.max_mm = 200;
-    c.axis.max_velocity_mm_s = 1000;
-    c.axis.max_acceleration_mm_s2 = 10000;
-    // Emulated (TCG) VM: generous deadlines, short heartbeat so the loss shows quickly.
-    c.canopen.heartbeat = 50ms;
+    // Emulated (TCG) VM: generous deadlines, short heartbeat (50 ms) so the loss shows quickly.
+    SetTestAxis(c, "sv1", KernelBus(iface_), kNode);
     c.canopen.heartbeat_timeout = 300ms;
     c.canopen.sdo_timeout = 1000ms;
     auto drive = CreateStoberDrive(c, SteadyClock::Instance());
