@@ -126,7 +126,8 @@ std::string Pack::KeyOf(const TrinamicConfig& config) {
   return absl::StrCat(where, "#", std::to_string(config.address));
 }
 
-absl::StatusOr<std::shared_ptr<Pack>> Pack::Acquire(const TrinamicConfig& config) {
+absl::StatusOr<std::shared_ptr<Pack>> Pack::Acquire(const TrinamicConfig& config,
+                                                    const std::string& owner) {
   if (config.serial.has_value() == config.can.has_value()) {
     return absl::InvalidArgumentError("trinamic: exactly one of serial / can must be set");
   }
@@ -140,7 +141,8 @@ absl::StatusOr<std::shared_ptr<Pack>> Pack::Acquire(const TrinamicConfig& config
     }
   }
   if (auto s = NoAddressClash(r, config); !s.ok()) return s;
-  const SessionOptions options = SessionOptionsOf(config);
+  SessionOptions options = SessionOptionsOf(config);
+  options.owner = owner;
   absl::StatusOr<std::shared_ptr<ControllerSession>> session;
   if (config.serial) {
     transport::SerialConfig sc;

@@ -1,0 +1,288 @@
+// Several controllers on one serial line (RS-485 multi-drop, trinamic-sixpack.md §2.1/§2.2, L273,
+// L275; decision 1471): the simulated PACKs answer several unit addresses on one real pty, the
+// sessions share one SerialLine (one descriptor, one transaction at a time), a dead PACK on the
+// line does not slow the live one, and the line refuses settings that cannot share it.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "adapters/core/clock.h"
+#include "adapters/trinamic/pack.h"
+#include "adapters/trinamic/session.h"
+#include "sim/trinamic/server.h"
+
+namespace drivegw::trinamic {
+namespace {
+
+using namespace std::chrono_literals;
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+
+constexpr uint16_t kSerialOf[] = {0, 0x1111, 0x2222, 0x3333};  // by unit address
+
+// Simulated PACKs with addresses 1..units on one pty (the CT-06 multi-drop line).
+struct MultiDrop {
+  explicit MultiDrop(int units) {
+    static std::atomic<int> n{0};
+    sim::trinamic::ServerOptions o;
+    o.pty_path = (std::filesystem::temp_directory_path() /
+                  ("dgw-trline-" + std::to_string(::getpid()) + "-" + std::to_string(n++)))
+                     .string();
+    o.trace_limit = 0;
+    o.controller.address = 1;
+    o.controller.serial_number = kSerialOf[1];
+    for (int a = 2; a <= units; ++a) {
+      sim::trinamic::ControllerOptions more = o.controller;
+      more.address = static_cast<uint8_t>(a);
+      more.serial_number = kSerialOf[a];
+      o.more_units.push_back(more);
+    }
+    auto s = sim::trinamic::TrinamicServer::Start(o, SteadyClock::Instance());
+    EXPECT_TRUE(s.ok()) << s.status();
+    if (s.ok()) server = *std::move(s);
+    path = o.pty_path;
+  }
+  ~MultiDrop() {
+    if (server) server->Stop();
+  }
+  std::unique_ptr<sim::trinamic::TrinamicServer> server;
+  std::string path;  // the symlink, as a config names it
+};
+
+transport::SerialConfig Line(const std::string& path, int baud = 19200) {
+  transport::SerialConfig c;
+  c.device = path;
+  c.baud = baud;
+  return c;
+}
+
+SessionOptions Options(uint8_t address, uint8_t ra, const std::string& owner) {
+  SessionOptions o;
+  o.address = address;
+  o.response_address = ra;
+  o.owner = owner;
+  o.probe_timeout = 100ms;
+  o.break_duration = 1ms;
+  return o;
+}
+
+// Descriptors of this process open on the terminal `path` names (symlink resolved).
+int OpenDescriptorsOn(const std::string& path) {
+  const auto target = std::filesystem::canonical(path);
+  int n = 0;
+  for (const auto& e : std::filesystem::directory_iterator("/proc/self/fd")) {
+    std::error_code ec;
+    if (std::filesystem::read_symlink(e.path(), ec) == target) ++n;
+  }
+  return n;
+}
+
+uint16_t SerialNumber(const Reply& r) { return static_cast<uint16_t>(r.values[3]); }
+
+TEST(SharedLineTest, TwoControllersOnePty_OneDescriptorAndEveryReplyFromItsOwnPack) {
+  MultiDrop line(2);
+  ASSERT_NE(line.server, nullptr);
+  const int sim_fds = OpenDescriptorsOn(line.path);  // the simulator keeps the slave open too
+  auto a = ControllerSession::OpenSerial(Line(line.path), Options(1, 0xF0, "drive 'a'"));
+  auto b = ControllerSession::OpenSerial(Line(line.path), Options(2, 0xF1, "drive 'b'"));
+  ASSERT_TRUE(a.ok()) << a.status();
+  ASSERT_TRUE(b.ok()) << b.status();
+  EXPECT_EQ(OpenDescriptorsOn(line.path), sim_fds + 1);  // opened (and termios set) once
+
+  // Both hammer `$43` concurrently: each must only ever see its own PACK's serial number.
+  auto run = [](ControllerSession& s, uint8_t address, std::atomic<int>& wrong,
+                std::atomic<int>& failed) {
+    const Command q =
+        *MakeCommand(address, Opcode::kUnitInformation, {s.options().response_address});
+    for (int i = 0; i < 150; ++i) {
+      auto r = s.Transact(q, SessionClock::now() + 200ms);
+      if (!r.ok() || !r->has_value()) {
+        ++failed;
+      } else if (SerialNumber(**r) != kSerialOf[address]) {
+        ++wrong;
+      }
+    }
+  };
+  std::atomic<int> wrong{0}, failed{0};
+  std::thread ta([&] { run(**a, 1, wrong, failed); });
+  std::thread tb([&] { run(**b, 2, wrong, failed); });
+  ta.join();
+  tb.join();
+  EXPECT_EQ(wrong.load(), 0);
+  EXPECT_EQ(failed.load(), 0);
+  for (auto* s : {&*a, &*b}) {
+    const SessionCounters c = (*s)->counters();
+    EXPECT_EQ(c.replies, 151u) << (*s)->name();  // the probe and 150 queries
+    EXPECT_EQ(c.garbage, 0u) << (*s)->name();
+    EXPECT_EQ(c.timeouts, 0u) << (*s)->name();
+    EXPECT_EQ((*s)->health().state, HealthState::kUp) << (*s)->name();
+  }
+  a->reset();
+  b->reset();
+  EXPECT_EQ(OpenDescriptorsOn(line.path), sim_fds);  // closed with its last member
+}
+
+TEST(SharedLineTest, Attach_RefusesOtherLineSettingsSameAddressAndRaClash_NamingBoth) {
+  MultiDrop line(2);
+  ASSERT_NE(line.server, nullptr);
+  const int sim_fds = OpenDescriptorsOn(line.path);
+  auto a = ControllerSession::OpenSerial(Line(line.path), Options(1, 0xF0, "drive 'a'"));
+  ASSERT_TRUE(a.ok()) << a.status();
+
+  auto baud = ControllerSession::OpenSerial(Line(line.path, 9600), Options(2, 0xF0, "drive 'b'"));
+  EXPECT_EQ(baud.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(baud.status().message(),
+              AllOf(HasSubstr(line.path), HasSubstr("drive 'b' (address 2) wants 9600 baud"),
+                    HasSubstr("19200 baud for drive 'a' (address 1)")));
+
+  transport::SerialConfig rs485 = Line(line.path);
+  rs485.duplex = transport::SerialConfig::Duplex::kHalfRs485;
+  auto duplex = ControllerSession::OpenSerial(rs485, Options(2, 0xF0, "drive 'b'"));
+  EXPECT_THAT(duplex.status().message(),
+              HasSubstr("drive 'b' (address 2) wants RS-485, the line is RS-232 for drive 'a'"));
+
+  // The same line through its terminal path: one line, so the same address is refused.
+  auto same =
+      ControllerSession::OpenSerial(Line(line.server->slave_path()), Options(1, 0xF0, "drive 'c'"));
+  EXPECT_EQ(same.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(same.status().message(),
+              HasSubstr("drive 'c' (address 1) has the unit address of drive 'a' (address 1)"));
+
+  auto ra = ControllerSession::OpenSerial(Line(line.path), Options(2, 1, "drive 'd'"));
+  EXPECT_THAT(ra.status().message(),
+              HasSubstr("drive 'd' (address 2) sends its replies to response address 1, the "
+                        "unit address of drive 'a' (address 1)"));
+  EXPECT_EQ(OpenDescriptorsOn(line.path), sim_fds + 1);
+
+  // Refusals leave nothing behind: a valid second controller still joins.
+  auto b = ControllerSession::OpenSerial(Line(line.path), Options(2, 0xF0, "drive 'b'"));
+  ASSERT_TRUE(b.ok()) << b.status();
+  EXPECT_TRUE((*b)->Probe().ok());
+}
+
+TEST(SharedLineTest, ChangeBaud_RefusedWhileShared_NothingSent) {
+  MultiDrop line(2);
+  ASSERT_NE(line.server, nullptr);
+  auto a = ControllerSession::OpenSerial(Line(line.path), Options(1, 0xF0, "drive 'a'"));
+  auto b = ControllerSession::OpenSerial(Line(line.path), Options(2, 0xF0, "drive 'b'"));
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_TRUE((*a)->Probe().ok());
+  const uint64_t before = (*a)->counters().requests;
+  // `$40` divisor 22 = 57600 baud (§2.1): the PACK at address 2 would stay at 19200.
+  const Command word = *MakeCommand(1, Opcode::kSetBaudRate, {22, 3});
+  const absl::Status s = (*a)->ChangeBaud(word, SessionClock::now() + 200ms);
+  EXPECT_EQ(s.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(s.message(), HasSubstr("drive 'b' (address 2) share the line"));
+  EXPECT_EQ((*a)->counters().requests, before);
+  EXPECT_EQ((*a)->baud(), 19200);
+  EXPECT_TRUE((*b)->Probe().ok());
+}
+
+// The gateway's path: one Pack (poll thread) per controller. Polls as fast as the line allows.
+struct PollOnly : PackListener {
+  void OnSample(const AxisSample&) noexcept override {}
+  void OnLink(LinkState, const std::string&) noexcept override {}
+  void OnControllerReset() noexcept override {}
+  void OnDuplicateAddress(const std::string&) noexcept override {}
+  std::vector<Command> ApplyCommands(bool) const override { return {}; }
+  void AbsorbWord(const Command&) noexcept override {}
+  absl::Status CheckShared(uint32_t, int64_t, int) const override { return absl::OkStatus(); }
+};
+
+TrinamicConfig PackConfig(const std::string& path, uint8_t address) {
+  TrinamicConfig t;
+  t.serial = SerialLineConfig{path, 19200, false, 6000us};
+  t.address = address;
+  t.axis = 0;
+  t.microsteps_per_unit = 10;
+  t.poll_period = 1ms;  // the line, not the period, limits the rate
+  return t;             // reply_timeout 100 ms, back-off 100 ms .. 5 s (defaults)
+}
+
+// Polls answered by `pack` during `window`.
+double PollsPerSecond(Pack& pack, std::chrono::milliseconds window) {
+  const uint64_t before = pack.counters().polls;
+  const auto t0 = SessionClock::now();
+  std::this_thread::sleep_for(window);
+  const double s = std::chrono::duration<double>(SessionClock::now() - t0).count();
+  return static_cast<double>(pack.counters().polls - before) / s;
+}
+
+TEST(SharedLineTest, DeadNeighbour_DownAndProbedAtBackoff_LiveKeepsItsPollRate) {
+  MultiDrop line(2);
+  ASSERT_NE(line.server, nullptr);
+  line.server->SetUnitSilent(1, true);  // the PACK at address 2 is dead
+  auto live = Pack::Acquire(PackConfig(line.path, 1), "drive 'live'");
+  ASSERT_TRUE(live.ok()) << live.status();
+  PollOnly live_axis;
+  ASSERT_TRUE((*live)->Register(0, &live_axis, 1ms).ok());
+  std::this_thread::sleep_for(300ms);
+  const double alone = PollsPerSecond(**live, 2s);
+
+  auto dead = Pack::Acquire(PackConfig(line.path, 2), "drive 'dead'");
+  ASSERT_TRUE(dead.ok()) << dead.status();
+  PollOnly dead_axis;
+  ASSERT_TRUE((*dead)->Register(0, &dead_axis, 1ms).ok());
+  // Its probes at 0, 0.2, 0.5, 1.0, 1.9, 3.6 s (100 ms each, back-off doubling from 100 ms):
+  // 3 of them (300 ms) fall into this 3 s window, so the bound below has room (≥ 90 % expected).
+  std::this_thread::sleep_for(1s);
+  const double shared = PollsPerSecond(**live, 3s);
+  const double alone_again = [&] {
+    dead->reset();  // the neighbour leaves; the same line, alone again
+    return PollsPerSecond(**live, 2s);
+  }();
+  const double reference = (alone + alone_again) / 2;
+  std::cout << "[ measured ] live controller polls/s: alone " << alone << ", with a dead neighbour "
+            << shared << ", alone again " << alone_again << " (" << 100 * shared / reference
+            << " %)\n";
+  EXPECT_GT(alone, 50);  // the line is the limit, not a stalled poll thread
+  EXPECT_GE(shared, 0.8 * reference);
+  const PackCounters c = (*live)->counters();
+  EXPECT_EQ(c.poll_failures, 0u);
+  const SessionCounters sc = (*live)->session_counters();
+  EXPECT_EQ(sc.garbage, 0u);
+  EXPECT_EQ(sc.timeouts, 0u);
+  EXPECT_EQ((*live)->health().state, HealthState::kUp);
+  (*live)->Unregister(0);
+}
+
+TEST(SharedLineTest, DeadNeighbour_IsDownAndProbedAtItsBackoffOnly) {
+  MultiDrop line(2);
+  ASSERT_NE(line.server, nullptr);
+  line.server->SetUnitSilent(1, true);
+  auto live = Pack::Acquire(PackConfig(line.path, 1), "drive 'live'");
+  auto dead = Pack::Acquire(PackConfig(line.path, 2), "drive 'dead'");
+  ASSERT_TRUE(live.ok() && dead.ok());
+  PollOnly live_axis, dead_axis;
+  ASSERT_TRUE((*live)->Register(0, &live_axis, 1ms).ok());
+  ASSERT_TRUE((*dead)->Register(0, &dead_axis, 1ms).ok());
+  std::this_thread::sleep_for(2500ms);
+  EXPECT_EQ((*dead)->health().state, HealthState::kDown);
+  EXPECT_EQ((*live)->health().state, HealthState::kUp);
+  // Polled every 1 ms, yet probed only at its back-off: 0, 0.2, 0.5, 1.0, 1.9 s (≤ 6 with slack).
+  const SessionCounters dc = (*dead)->session_counters();
+  EXPECT_GE(dc.probes, 4u);
+  EXPECT_LE(dc.probes, 6u);
+  EXPECT_EQ(dc.requests, dc.probes);  // nothing but probes went out for it
+
+  // It comes back: UP again after its next probe, the live one never noticed.
+  line.server->SetUnitSilent(1, false);
+  const auto until = SessionClock::now() + 5s;
+  while ((*dead)->health().state != HealthState::kUp && SessionClock::now() < until) {
+    std::this_thread::sleep_for(20ms);
+  }
+  EXPECT_EQ((*dead)->health().state, HealthState::kUp);
+  EXPECT_EQ((*live)->counters().poll_failures, 0u);
+  (*live)->Unregister(0);
+  (*dead)->Unregister(0);
+}
+
+}  // namespace
+}  // namespace drivegw::trinamic
