@@ -430,8 +430,9 @@ int RunTrinamic(int argc, char** argv) {
       more_addresses.insert(more_addresses.begin(),
                             static_cast<uint8_t>(ParseInt(arg, value, 1, 255)));
     } else if (arg == "--more-addresses") {
-      for (std::string_view a : absl::StrSplit(value, ',')) {
-        more_addresses.push_back(static_cast<uint8_t>(ParseInt(arg, std::string(a), 1, 255)));
+      const std::vector<std::string> parts = absl::StrSplit(value, ',');
+      for (const std::string& a : parts) {
+        more_addresses.push_back(static_cast<uint8_t>(ParseInt(arg, a, 1, 255)));
       }
     } else if (arg == "--supply-volts") {
       o.controller.supply_volts = ParseDouble(arg, value);
