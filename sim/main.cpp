@@ -507,7 +507,9 @@ int RunTrinamic(int argc, char** argv) {
   }
   std::cout << absl::StrFormat("trinamic address %d (%d axes) on %s -> %s", o.controller.address,
                                o.controller.axes, o.pty_path, (*server)->slave_path());
-  if (!more_addresses.empty()) {
+  if (more_addresses.size() == 1) {
+    std::cout << absl::StrFormat(", second address %d", more_addresses[0]);  // as before
+  } else if (!more_addresses.empty()) {
     std::cout << ", further addresses "
               << absl::StrJoin(more_addresses, ",", [](std::string* out, uint8_t a) {
                    absl::StrAppend(out, static_cast<int>(a));

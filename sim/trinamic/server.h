@@ -66,7 +66,7 @@ class TrinamicServer {
   // ---- fault injection and introspection (take effect at clock.Now()) ----
   void SetSilent(bool silent);
   // Unit `index` alone (0 = options.controller, then options.more_units) executes words but never
-  // answers: a dead PACK among live ones on one RS-485 line (decision 1472).
+  // answers: a dead PACK among live ones on one RS-485 line (decision 1471).
   void SetUnitSilent(size_t index, bool silent);
   // Seeded faults on the serial line (decision 1421): `host_words` applies to every complete
   // word from the host before the units execute it, `replies` to every reply. Only drop and
