@@ -453,7 +453,7 @@ TEST(SessionTest, Transact_OtherAddress_InvalidArgument) {
 
 // Decision 1471: on a line shared with the controller at address 2 (RA $F1), an R9 reply that
 // starts with $F1 is that controller's late reply: counted and dropped, ours still taken.
-TEST(SessionTest, SharedLine_ReplyWithNeighboursRa_CountedDroppedOwnReplyTaken) {
+TEST(TrinamicSharedLineTest, ReplyWithNeighboursRa_CountedDroppedOwnReplyTaken) {
   ScriptedController ctl(ReplyFraming::kR9);
   ctl.SetScript([&](const Command& c) {
     std::vector<uint8_t> out;
