@@ -9,10 +9,12 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <iostream>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "adapters/core/clock.h"
 #include "adapters/trinamic/pack.h"
 #include "adapters/trinamic/session.h"
@@ -206,84 +208,104 @@ TrinamicConfig PackConfig(const std::string& path, uint8_t address) {
   return t;             // reply_timeout 100 ms, back-off 100 ms .. 5 s (defaults)
 }
 
-// Polls answered by `pack` during `window`.
-double PollsPerSecond(Pack& pack, std::chrono::milliseconds window) {
-  const uint64_t before = pack.counters().polls;
+// The controller at `address` with motor 0 polled by `axis` every 1 ms (nullptr on failure).
+std::shared_ptr<Pack> Polled(const std::string& path, uint8_t address, const std::string& owner,
+                             PollOnly& axis) {
+  auto pack = Pack::Acquire(PackConfig(path, address), owner);
+  EXPECT_TRUE(pack.ok()) << pack.status();
+  if (!pack.ok()) return nullptr;
+  const absl::Status s = (*pack)->Register(0, &axis, 1ms);
+  EXPECT_TRUE(s.ok()) << s;
+  return s.ok() ? *pack : nullptr;
+}
+
+// Polls answered by `a` and by `b` during the same `window`, per second.
+std::pair<double, double> PollsPerSecond(Pack& a, Pack& b, std::chrono::milliseconds window) {
+  const uint64_t a0 = a.counters().polls, b0 = b.counters().polls;
   const auto t0 = SessionClock::now();
   std::this_thread::sleep_for(window);
   const double s = std::chrono::duration<double>(SessionClock::now() - t0).count();
-  return static_cast<double>(pack.counters().polls - before) / s;
+  return {static_cast<double>(a.counters().polls - a0) / s,
+          static_cast<double>(b.counters().polls - b0) / s};
 }
 
-TEST(TrinamicSharedLineTest, DeadNeighbour_DownAndProbedAtBackoff_LiveKeepsItsPollRate) {
-  MultiDrop line(2);
-  ASSERT_NE(line.server, nullptr);
-  line.server->SetUnitSilent(1, true);  // the PACK at address 2 is dead
-  auto live = Pack::Acquire(PackConfig(line.path, 1), "drive 'live'");
-  ASSERT_TRUE(live.ok()) << live.status();
-  PollOnly live_axis;
-  ASSERT_TRUE((*live)->Register(0, &live_axis, 1ms).ok());
-  std::this_thread::sleep_for(300ms);
-  const double alone = PollsPerSecond(**live, 2s);
+std::string Describe(const SessionCounters& c) {
+  return absl::StrCat("requests ", c.requests, " replies ", c.replies, " timeouts ", c.timeouts,
+                      " garbage ", c.garbage, " duplicates ", c.duplicate_replies,
+                      " wrong_address ", c.wrong_address, " unsolicited ", c.unsolicited);
+}
 
-  auto dead = Pack::Acquire(PackConfig(line.path, 2), "drive 'dead'");
-  ASSERT_TRUE(dead.ok()) << dead.status();
-  PollOnly dead_axis;
-  ASSERT_TRUE((*dead)->Register(0, &dead_axis, 1ms).ok());
-  // Its probes at 0, 0.2, 0.5, 1.0, 1.9, 3.6 s (100 ms each, back-off doubling from 100 ms):
-  // 3 of them (300 ms) fall into this 3 s window, so the bound below has room (≥ 90 % expected).
+// The live controller's poll rate is judged against a control: the same controller alone on a
+// second line, measured in the same windows, so the load of a shared machine hits both alike.
+TEST(TrinamicSharedLineTest, DeadNeighbour_DownAndProbedAtBackoff_LiveKeepsItsPollRate) {
+  MultiDrop line(2), control_line(1);
+  ASSERT_NE(line.server, nullptr);
+  ASSERT_NE(control_line.server, nullptr);
+  line.server->SetUnitSilent(1, true);  // the PACK at address 2 is dead
+  PollOnly live_axis, control_axis, dead_axis;
+  std::shared_ptr<Pack> live = Polled(line.path, 1, "drive 'live'", live_axis);
+  std::shared_ptr<Pack> control = Polled(control_line.path, 1, "drive 'control'", control_axis);
+  ASSERT_TRUE(live && control);
+  std::this_thread::sleep_for(300ms);
+  const auto [alone, control_alone] = PollsPerSecond(*live, *control, 3s);
+
+  std::shared_ptr<Pack> dead = Polled(line.path, 2, "drive 'dead'", dead_axis);
+  ASSERT_NE(dead, nullptr);
+  // Its probes at 0, 0.2, 0.5, 1.0, 1.9, 3.6, 6.9 s (100 ms each, back-off doubling from 100 ms
+  // after each failure): 3 of them (300 ms) fall into this 6 s window, ≈ 95 % of the line is left
+  // for the live one (the steady state, 100 ms per 5 s, leaves 98 %).
   std::this_thread::sleep_for(1s);
-  const double shared = PollsPerSecond(**live, 3s);
-  const double alone_again = [&] {
-    dead->reset();  // the neighbour leaves; the same line, alone again
-    return PollsPerSecond(**live, 2s);
-  }();
-  const double reference = (alone + alone_again) / 2;
-  std::cout << "[ measured ] live controller polls/s: alone " << alone << ", with a dead neighbour "
-            << shared << ", alone again " << alone_again << " (" << 100 * shared / reference
-            << " %)\n";
+  const auto [shared, control_shared] = PollsPerSecond(*live, *control, 6s);
+  const double before = alone / control_alone;
+  const double after = shared / control_shared;
+  std::cout << "[ measured ] live controller polls/s: alone " << alone << " (control "
+            << control_alone << "), with a dead neighbour " << shared << " (control "
+            << control_shared << "): " << 100 * after / before << " % of alone\n";
+  std::cout << "[ measured ] live: " << Describe(live->session_counters())
+            << "; control: " << Describe(control->session_counters()) << "\n";
   EXPECT_GT(alone, 50);  // the line is the limit, not a stalled poll thread
-  EXPECT_GE(shared, 0.8 * reference);
-  const PackCounters c = (*live)->counters();
-  EXPECT_EQ(c.poll_failures, 0u);
-  const SessionCounters sc = (*live)->session_counters();
-  EXPECT_EQ(sc.garbage, 0u);
-  EXPECT_EQ(sc.timeouts, 0u);
-  EXPECT_EQ((*live)->health().state, HealthState::kUp);
-  (*live)->Unregister(0);
+  EXPECT_GE(after, 0.8 * before);
+  const SessionCounters sc = live->session_counters();
+  EXPECT_EQ(live->counters().poll_failures, 0u) << Describe(sc);
+  EXPECT_EQ(sc.garbage, 0u) << Describe(sc);
+  EXPECT_EQ(sc.timeouts, 0u) << Describe(sc);
+  EXPECT_EQ(live->health().state, HealthState::kUp);
+  dead->Unregister(0);
+  live->Unregister(0);
+  control->Unregister(0);
 }
 
 TEST(TrinamicSharedLineTest, DeadNeighbour_IsDownAndProbedAtItsBackoffOnly) {
   MultiDrop line(2);
   ASSERT_NE(line.server, nullptr);
   line.server->SetUnitSilent(1, true);
-  auto live = Pack::Acquire(PackConfig(line.path, 1), "drive 'live'");
-  auto dead = Pack::Acquire(PackConfig(line.path, 2), "drive 'dead'");
-  ASSERT_TRUE(live.ok() && dead.ok());
   PollOnly live_axis, dead_axis;
-  ASSERT_TRUE((*live)->Register(0, &live_axis, 1ms).ok());
-  ASSERT_TRUE((*dead)->Register(0, &dead_axis, 1ms).ok());
+  std::shared_ptr<Pack> live = Polled(line.path, 1, "drive 'live'", live_axis);
+  std::shared_ptr<Pack> dead = Polled(line.path, 2, "drive 'dead'", dead_axis);
+  ASSERT_TRUE(live && dead);
   std::this_thread::sleep_for(2500ms);
-  EXPECT_EQ((*dead)->health().state, HealthState::kDown);
-  EXPECT_EQ((*live)->health().state, HealthState::kUp);
+  EXPECT_EQ(dead->health().state, HealthState::kDown);
+  EXPECT_EQ(live->health().state, HealthState::kUp);
   // Polled every 1 ms (≈ 2500 polls), yet probed only at its back-off: 0, 0.2, 0.5, 1.0, 1.9 s,
   // i.e. at most 5 (6 with slack); fewer on a loaded machine (3 seen beside a -j1 build), but it
   // is still being probed.
-  const SessionCounters dc = (*dead)->session_counters();
+  const SessionCounters dc = dead->session_counters();
   EXPECT_GE(dc.probes, 2u);
   EXPECT_LE(dc.probes, 6u);
-  EXPECT_EQ(dc.requests, dc.probes);  // nothing but probes went out for it
+  // Nothing but probes went out for it (a probe in flight is counted before its word).
+  EXPECT_LE(dc.requests, dc.probes);
+  EXPECT_GE(dc.requests + 1, dc.probes);
 
   // It comes back: UP again after its next probe, the live one never noticed.
   line.server->SetUnitSilent(1, false);
   const auto until = SessionClock::now() + 5s;
-  while ((*dead)->health().state != HealthState::kUp && SessionClock::now() < until) {
+  while (dead->health().state != HealthState::kUp && SessionClock::now() < until) {
     std::this_thread::sleep_for(20ms);
   }
-  EXPECT_EQ((*dead)->health().state, HealthState::kUp);
-  EXPECT_EQ((*live)->counters().poll_failures, 0u);
-  (*live)->Unregister(0);
-  (*dead)->Unregister(0);
+  EXPECT_EQ(dead->health().state, HealthState::kUp);
+  EXPECT_EQ(live->counters().poll_failures, 0u) << Describe(live->session_counters());
+  live->Unregister(0);
+  dead->Unregister(0);
 }
 
 }  // namespace
