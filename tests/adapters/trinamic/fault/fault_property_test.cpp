@@ -223,6 +223,13 @@ class TrinamicFaultTest : public ::testing::Test {
     return expected;
   }
 
+  // (c) once the loss has stopped: online, and a new move completes.
+  void ExpectRecovered() {
+    WaitOnline();
+    if (drive_->GetStatus().state != DriveState::kEnabled) EnableUnderLoss();
+    ASSERT_EQ(RunMove(Abs(3000), 3000), CommandState::kDone);
+  }
+
   std::unique_ptr<TrinamicServer> server_;
   std::unique_ptr<TrinamicCanServer> can_server_;
   transport::ImpairedCanChannel* can_link_ = nullptr;  // owned by can_server_
@@ -256,11 +263,8 @@ TEST_F(TrinamicFaultTest, TenPercentLossBothWays_NoUnrequestedMotion_NoFalseDone
   EXPECT_GT(sc.words_impaired_dropped, 0u);
   EXPECT_GT(sc.replies_impaired_dropped, 0u);
 
-  // (c) the loss stops: online, and a new move completes.
   ASSERT_TRUE(server_->SetImpairment({}, {}).ok());
-  WaitOnline();
-  if (drive_->GetStatus().state != DriveState::kEnabled) EnableUnderLoss();
-  ASSERT_EQ(RunMove(Abs(3000), 3000), CommandState::kDone);
+  ExpectRecovered();
 }
 
 // Decision 1472: the CAN link under the same loss. A lost command frame is a lost word, a lost
@@ -285,11 +289,8 @@ TEST_F(TrinamicFaultTest, Can_TenPercentLossBothWays_NoUnrequestedMotion_NoFalse
   EXPECT_GT(ic.receive.dropped, 0u);
   EXPECT_GT(ic.send.dropped, 0u);
 
-  // (c) the loss stops: online, and a new move completes.
   ASSERT_TRUE(can_link_->SetImpairment({}, {}).ok());
-  WaitOnline();
-  if (drive_->GetStatus().state != DriveState::kEnabled) EnableUnderLoss();
-  ASSERT_EQ(RunMove(Abs(3000), 3000), CommandState::kDone);
+  ExpectRecovered();
 }
 
 TEST_F(TrinamicFaultTest, DuplicateOrReorder_RefusedForASerialLine) {
