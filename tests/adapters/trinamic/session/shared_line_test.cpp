@@ -16,6 +16,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/clock.h"
+#include "adapters/trinamic/factory.h"
 #include "adapters/trinamic/pack.h"
 #include "adapters/trinamic/session.h"
 #include "sim/trinamic/server.h"
@@ -217,6 +218,37 @@ std::shared_ptr<Pack> Polled(const std::string& path, uint8_t address, const std
   const absl::Status s = (*pack)->Register(0, &axis, 1ms);
   EXPECT_TRUE(s.ok()) << s;
   return s.ok() ? *pack : nullptr;
+}
+
+// The gateway's path: two axis drives of two controllers on one device, built without the config
+// file's cross-drive checks (which refuse this earlier, TrinamicConfigTest.OneSerialLine_*): the
+// second Activate is refused naming both drives.
+TEST(TrinamicSharedLineTest, DriveActivate_OtherBaudOnTheSameLine_RefusedNamingBothDrives) {
+  MultiDrop line(2);
+  ASSERT_NE(line.server, nullptr);
+  auto drive = [&](const std::string& name, uint8_t address, int baud) {
+    DriveConfig c;
+    c.name = name;
+    c.family = kFamilyName;
+    c.axis.min_mm = 0;
+    c.axis.max_mm = 100;
+    c.axis.max_velocity_mm_s = 100;
+    c.axis.max_acceleration_mm_s2 = 1000;
+    c.trinamic = PackConfig(line.path, address);
+    c.trinamic->serial->baud = baud;
+    auto d = CreateTrinamicDrive(c, SteadyClock::Instance());
+    EXPECT_TRUE(d.ok()) << d.status();
+    return d.ok() ? *std::move(d) : nullptr;
+  };
+  std::unique_ptr<Drive> a = drive("feeder-x", 1, 19200);
+  std::unique_ptr<Drive> b = drive("feeder-z", 2, 9600);
+  ASSERT_TRUE(a && b);
+  ASSERT_TRUE(a->Activate().ok());
+  const absl::Status s = b->Activate();
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(s.message(), AllOf(HasSubstr("drive 'feeder-z' (address 2) wants 9600 baud"),
+                                 HasSubstr("19200 baud for drive 'feeder-x' (address 1)")));
+  a->Deactivate();
 }
 
 // Polls answered by `a` and by `b` during the same `window`, per second.
