@@ -32,7 +32,7 @@ constexpr uint16_t kSerialOf[] = {0, 0x1111, 0x2222, 0x3333};  // by unit addres
 
 // Simulated PACKs with addresses 1..units on one pty (the CT-06 multi-drop line).
 struct MultiDrop {
-  explicit MultiDrop(int units) {
+  explicit MultiDrop(int units, ReplyFraming framing = ReplyFraming::kR8) {
     static std::atomic<int> n{0};
     sim::trinamic::ServerOptions o;
     o.pty_path = (std::filesystem::temp_directory_path() /
@@ -41,6 +41,7 @@ struct MultiDrop {
     o.trace_limit = 0;
     o.controller.address = 1;
     o.controller.serial_number = kSerialOf[1];
+    o.controller.framing = framing;
     for (int a = 2; a <= units; ++a) {
       sim::trinamic::ControllerOptions more = o.controller;
       more.address = static_cast<uint8_t>(a);
@@ -203,6 +204,8 @@ TrinamicConfig PackConfig(const std::string& path, uint8_t address) {
   TrinamicConfig t;
   t.serial = SerialLineConfig{path, 19200, false, 6000us};
   t.address = address;
+  // Its own response address per controller (decision 1471): R9 replies then name it.
+  t.response_address = static_cast<uint8_t>(0xF0 + address - 1);
   t.axis = 0;
   t.microsteps_per_unit = 10;
   t.poll_period = 1ms;  // the line, not the period, limits the rate
@@ -307,8 +310,10 @@ TEST(TrinamicSharedLineTest, DeadNeighbour_DownAndProbedAtBackoff_LiveKeepsItsPo
   control->Unregister(0);
 }
 
+// In R9 framing with a response address per controller, the configuration decision 1471
+// recommends: once the neighbour is back, a late reply of one is never taken for the other's.
 TEST(TrinamicSharedLineTest, DeadNeighbour_IsDownAndProbedAtItsBackoffOnly) {
-  MultiDrop line(2);
+  MultiDrop line(2, ReplyFraming::kR9);
   ASSERT_NE(line.server, nullptr);
   line.server->SetUnitSilent(1, true);
   PollOnly live_axis, dead_axis;
