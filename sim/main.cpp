@@ -19,6 +19,8 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "adapters/core/clock.h"
 #include "adapters/linmot/mc/motion_command.h"
 #include "adapters/transport/endpoint.h"
@@ -372,6 +374,8 @@ flags:
   --axes 6|4           6 = SIXpack, 4 = QUADpack (default 6)
   --framing r8|r9      serial reply framing (default r8)
   --second-address N   serial only: a second PACK with address N on the same line
+  --more-addresses N,M serial only: further PACKs with these addresses on the same line (RS-485
+                       multi-drop; may be combined with --second-address)
   --supply-volts V     supply voltage 0..60 (default 24; below 13 V is undervoltage)
   --can-jumpers 0..3   CAN bit-rate jumpers JP1 (bit 0), JP2 (bit 1) as read by $30 (default 0)
   --no-turnaround      serial only: reply at once instead of after the $40 switchover time
@@ -385,7 +389,7 @@ int RunTrinamic(int argc, char** argv) {
   tsim::ServerOptions o;
   o.turnaround = true;  // a real PACK answers after its switchover time (L283, decision 1040)
   std::optional<drivegw::CanBusConfig> can;
-  std::optional<uint8_t> second_address;
+  std::vector<uint8_t> more_addresses;  // --second-address, then --more-addresses
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "trinamic") continue;
@@ -423,7 +427,13 @@ int RunTrinamic(int argc, char** argv) {
       o.controller.axes = static_cast<int>(ParseInt(arg, value, 4, 6));
       if (o.controller.axes == 5) UsageError("--axes: 5 is not 6 (SIXpack) or 4 (QUADpack)");
     } else if (arg == "--second-address") {
-      second_address = static_cast<uint8_t>(ParseInt(arg, value, 1, 255));
+      more_addresses.insert(more_addresses.begin(),
+                            static_cast<uint8_t>(ParseInt(arg, value, 1, 255)));
+    } else if (arg == "--more-addresses") {
+      const std::vector<std::string> parts = absl::StrSplit(value, ',');
+      for (const std::string& a : parts) {
+        more_addresses.push_back(static_cast<uint8_t>(ParseInt(arg, a, 1, 255)));
+      }
     } else if (arg == "--supply-volts") {
       o.controller.supply_volts = ParseDouble(arg, value);
       if (o.controller.supply_volts < 0 || o.controller.supply_volts > 60) {
@@ -440,11 +450,13 @@ int RunTrinamic(int argc, char** argv) {
   if (o.pty_path.empty() && !can) {
     UsageError("--pty: missing (the path where the pty's symlink goes, or --can SPEC)");
   }
-  if (second_address) {
-    if (can) UsageError("--second-address: only for a serial line (without --can)");
-    tsim::ControllerOptions second = o.controller;
-    second.address = *second_address;
-    o.more_units.push_back(second);
+  if (!more_addresses.empty() && can) {
+    UsageError("--second-address/--more-addresses: only for a serial line (without --can)");
+  }
+  for (uint8_t address : more_addresses) {
+    tsim::ControllerOptions unit = o.controller;
+    unit.address = address;
+    o.more_units.push_back(unit);
   }
   if (auto s = tsim::ValidateOptions(o); !s.ok()) UsageError(std::string(s.message()));
   const sigset_t signals = BlockSignals();
@@ -495,7 +507,14 @@ int RunTrinamic(int argc, char** argv) {
   }
   std::cout << absl::StrFormat("trinamic address %d (%d axes) on %s -> %s", o.controller.address,
                                o.controller.axes, o.pty_path, (*server)->slave_path());
-  if (second_address) std::cout << absl::StrFormat(", second address %d", *second_address);
+  if (more_addresses.size() == 1) {
+    std::cout << absl::StrFormat(", second address %d", more_addresses[0]);  // as before
+  } else if (!more_addresses.empty()) {
+    std::cout << ", further addresses "
+              << absl::StrJoin(more_addresses, ",", [](std::string* out, uint8_t a) {
+                   absl::StrAppend(out, static_cast<int>(a));
+                 });
+  }
   std::cout << "\n";
   std::cout.flush();
   WaitForSignal(signals, 0, [] {});

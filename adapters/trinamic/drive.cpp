@@ -90,7 +90,7 @@ std::string TrinamicDrive::Prefix(const std::string& what) const {
 // Lifecycle.
 
 absl::Status TrinamicDrive::DoActivate() {
-  auto pack = Pack::Acquire(*config().trinamic);
+  auto pack = Pack::Acquire(*config().trinamic, absl::StrCat("drive '", name_, "'"));
   if (!pack.ok()) return pack.status();
   {
     std::lock_guard lock(mu_);

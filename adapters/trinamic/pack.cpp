@@ -2,6 +2,7 @@
 #include "adapters/trinamic/pack.h"
 
 #include <algorithm>
+#include <condition_variable>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -25,6 +26,7 @@ std::string CanSpec(const CanBusConfig& c) {
 // Process-wide registry: one Pack per controller (decision 1081).
 struct Registry {
   std::mutex mu;
+  std::condition_variable gone;  // an expired entry was erased (its Pack fully destroyed)
   std::map<std::string, std::weak_ptr<Pack>> packs;
 };
 Registry& TheRegistry() {
@@ -126,21 +128,26 @@ std::string Pack::KeyOf(const TrinamicConfig& config) {
   return absl::StrCat(where, "#", std::to_string(config.address));
 }
 
-absl::StatusOr<std::shared_ptr<Pack>> Pack::Acquire(const TrinamicConfig& config) {
+absl::StatusOr<std::shared_ptr<Pack>> Pack::Acquire(const TrinamicConfig& config,
+                                                    const std::string& owner) {
   if (config.serial.has_value() == config.can.has_value()) {
     return absl::InvalidArgumentError("trinamic: exactly one of serial / can must be set");
   }
   const std::string key = KeyOf(config);
   Registry& r = TheRegistry();
-  std::lock_guard lock(r.mu);
-  if (auto it = r.packs.find(key); it != r.packs.end()) {
+  std::unique_lock lock(r.mu);
+  for (auto it = r.packs.find(key); it != r.packs.end(); it = r.packs.find(key)) {
     if (std::shared_ptr<Pack> p = it->second.lock()) {
       if (auto s = SameTransport(p->config(), config, key); !s.ok()) return s;
       return p;
     }
+    // Expired: its Pack is still being destroyed and its session still holds the controller's
+    // place on a shared serial line (decision 1471); a new session would be refused meanwhile.
+    r.gone.wait(lock);
   }
   if (auto s = NoAddressClash(r, config); !s.ok()) return s;
-  const SessionOptions options = SessionOptionsOf(config);
+  SessionOptions options = SessionOptionsOf(config);
+  options.owner = owner;
   absl::StatusOr<std::shared_ptr<ControllerSession>> session;
   if (config.serial) {
     transport::SerialConfig sc;
@@ -172,11 +179,13 @@ Pack::~Pack() {
   cv_.notify_all();
   if (thread_.joinable()) thread_.join();
   session_->RemoveObserver(observer_id_);
+  session_.reset();  // leaves the serial line before a successor may join it (decision 1471)
   Registry& r = TheRegistry();
   std::lock_guard lock(r.mu);
   if (auto it = r.packs.find(key_); it != r.packs.end() && it->second.expired()) {
     r.packs.erase(it);
   }
+  r.gone.notify_all();
 }
 
 absl::Status Pack::Register(uint8_t axis, PackListener* listener, milliseconds poll_period) {

@@ -76,7 +76,9 @@ class Pack final : private SessionObserver {
   // Key: serial device (or CAN bus spec) + address. Returns the live Pack of that controller or
   // opens a new one (transport opened, session created, no I/O yet). Same key with different
   // transport settings: InvalidArgument naming the field.
-  static absl::StatusOr<std::shared_ptr<Pack>> Acquire(const TrinamicConfig& config);
+  // `owner` ("drive 'feeder-x'") is named by a shared serial line's refusals (decision 1471).
+  static absl::StatusOr<std::shared_ptr<Pack>> Acquire(const TrinamicConfig& config,
+                                                       const std::string& owner = "");
   // "serial:/dev/ttyUSB0#1" or "can:udp:239.74.163.2:43113#1".
   static std::string KeyOf(const TrinamicConfig& config);
 

@@ -11,6 +11,7 @@
 #include "absl/strings/str_join.h"
 #include "adapters/core/wire_observer.h"
 #include "adapters/transport/can_frame.h"
+#include "adapters/trinamic/serial_line.h"
 
 namespace drivegw::trinamic {
 namespace {
@@ -44,31 +45,35 @@ void Add(SessionCounters& to, const SessionCounters& d) {
   to.probe_failures += d.probe_failures;
   to.offline_events += d.offline_events;
   to.io_errors += d.io_errors;
+  to.wrong_address += d.wrong_address;
 }
 
-// Serial link (§2): 9-byte words, R8/R9 replies detected at connect (G-01, decision 1051).
+// Serial link (§2): 9-byte words, R8/R9 replies detected at connect (G-01, decision 1051), on a
+// line that other controllers may share (decision 1471): every call runs under the line's lock
+// (ControllerSession takes LockLine() around each transaction).
 class SerialLink final : public SessionLink {
  public:
-  SerialLink(transport::SerialConfig config, milliseconds break_duration)
-      : config_(std::move(config)), break_duration_(break_duration) {}
+  SerialLink(std::shared_ptr<SerialLine> line, uint8_t address, milliseconds break_duration)
+      : line_(std::move(line)), address_(address), break_duration_(break_duration) {}
+  ~SerialLink() override { line_->Detach(address_); }
 
-  std::string Name() const override { return "serial " + config_.device; }
+  std::string Name() const override { return "serial " + line_->device(); }
 
-  absl::Status Open() override {
-    if (port_.has_value()) return absl::OkStatus();
-    auto port = transport::SerialPort::Open(config_);
-    if (!port.ok()) return port.status();
-    port_.emplace(std::move(*port));
-    return absl::OkStatus();
-  }
+  std::unique_lock<std::mutex> LockLine() override { return line_->Lock(); }
+  SessionClock::time_point LineWordEnd() const override { return line_->last_word_end(); }
+  void SetLineWordEnd(SessionClock::time_point t) override { line_->set_last_word_end(t); }
+  std::vector<std::string> Neighbours() const override { return line_->Neighbours(address_); }
+
+  absl::Status Open() override { return line_->Open(); }
   void Close() override {
-    port_.reset();
+    line_->Close();  // every member's next word reopens it (Send)
     framing_.reset();
   }
 
   size_t Drain(uint64_t& stray_zeros) override {
-    if (!port_) return 0;
-    auto bytes = port_->ReadAvailable(nanoseconds(0));
+    transport::SerialPort* port = line_->port();
+    if (!port) return 0;
+    auto bytes = port->ReadAvailable(nanoseconds(0));
     if (!bytes.ok()) return 0;
     size_t dropped = 0;
     for (uint8_t b : *bytes) {
@@ -82,27 +87,42 @@ class SerialLink final : public SessionLink {
   }
 
   absl::Status Send(const Command& command) override {
-    if (!port_) return absl::UnavailableError(Name() + ": not open");
+    // Another member's transport failure closed the line: it reopens for whoever talks next.
+    if (auto s = line_->Open(); !s.ok()) return s;
     auto bytes = EncodeCommand(command);
     if (!bytes.ok()) return bytes.status();
-    return port_->Write(*bytes);
+    return line_->port()->Write(*bytes);
   }
 
   absl::StatusOr<Reply> Receive(const Command& command, uint8_t ra, Deadline deadline, bool detect,
                                 SessionCounters& c) override {
-    if (!port_) return absl::UnavailableError(Name() + ": not open");
-    // First byte: 00 bytes after a reset are discarded (§2.4, L228, L902).
+    transport::SerialPort* port = line_->port();
+    if (!port) return absl::UnavailableError(Name() + ": not open");
+    const uint8_t op = static_cast<uint8_t>(command.opcode);
     uint8_t first = 0;
     for (;;) {
-      auto b = port_->ReadExactly(1, Remaining(deadline));
+      // First byte: 00 bytes after a reset are discarded (§2.4, L228, L902).
+      auto b = port->ReadExactly(1, Remaining(deadline));
       if (!b.ok()) return b.status();
-      if ((*b)[0] != 0) {
-        first = (*b)[0];
-        break;
+      if ((*b)[0] == 0) {
+        ++c.stray_zeros;
+        continue;
       }
-      ++c.stray_zeros;
+      first = (*b)[0];
+      // R9 (§2.4): a reply starting with the RA of another controller on this line is that
+      // controller's late reply (after its time-out): counted, its word dropped, ours awaited.
+      // Under R8 the first byte is an opcode, never a valid RA (§2.4), so this cannot misfire.
+      if (first != ra && line_->MemberWithResponseAddress(first, address_)) {
+        ++c.wrong_address;
+        auto rest = port->ReadExactly(ReplySize(ReplyFraming::kR9) - 1, Remaining(deadline));
+        if (!rest.ok()) {
+          Resync(c);
+          return rest.status();
+        }
+        continue;
+      }
+      break;
     }
-    const uint8_t op = static_cast<uint8_t>(command.opcode);
     if (detect) {
       auto f = DetectReplyFraming(first, ra);
       if (!f.ok())
@@ -118,7 +138,7 @@ class SerialLink final : public SessionLink {
                      absl::StrCat("first reply byte ", Hex(first), ", expected ", Hex(expected)));
     }
     std::vector<uint8_t> bytes{first};
-    auto rest = port_->ReadExactly(ReplySize(*framing_) - 1, Remaining(deadline));
+    auto rest = port->ReadExactly(ReplySize(*framing_) - 1, Remaining(deadline));
     if (!rest.ok()) {
       // Half a word on the line: resynchronise before the next request (§2.6, L279).
       Resync(c);
@@ -139,31 +159,32 @@ class SerialLink final : public SessionLink {
   }
 
   Extra AfterReply(microseconds window, SessionCounters& c) override {
-    if (!port_) return Extra::kNone;
-    auto extra = port_->ReadAvailable(window);
+    transport::SerialPort* port = line_->port();
+    if (!port) return Extra::kNone;
+    auto extra = port->ReadAvailable(window);
     if (!extra.ok() || extra->empty()) return Extra::kNone;
     auto first = std::find_if(extra->begin(), extra->end(), [](uint8_t b) { return b != 0; });
     c.stray_zeros += static_cast<uint64_t>(first - extra->begin());
     if (first == extra->end()) return Extra::kNone;
-    (void)port_->Flush();
+    (void)port->Flush();
     ++c.resyncs;
     // A second reply starts like the first one (RA under R9, the opcode under R8).
     if (*first == last_first_byte_) return Extra::kDuplicate;
+    if (line_->MemberWithResponseAddress(*first, address_)) {
+      ++c.wrong_address;  // a neighbour's late reply (R9 names its RA), not ours twice
+      return Extra::kNone;
+    }
     ++c.garbage;
     return Extra::kGarbage;
   }
 
   std::optional<ReplyFraming> framing() const override { return framing_; }
 
-  std::optional<int> baud() const override { return config_.baud; }
-  absl::Status SetBaud(int baud) override {
-    if (auto s = transport::ValidateBaud(baud); !s.ok()) return s;
-    if (port_) {
-      if (auto s = port_->SetBaud(baud); !s.ok()) return s;
-    }
-    config_.baud = baud;  // a reopened port starts at the new rate too
-    return absl::OkStatus();
+  std::optional<int> baud() const override { return line_->baud(); }
+  absl::Status CheckBaudChange(int baud) const override {
+    return line_->CheckRateChange(baud, address_);
   }
+  absl::Status SetBaud(int baud) override { return line_->SetBaud(baud, address_); }
 
  private:
   absl::Status Garbage(SessionCounters& c, const std::string& what) {
@@ -173,15 +194,17 @@ class SerialLink final : public SessionLink {
   }
   // Flush, break, flush (§2.3 L279: a break aborts a partial word; §2.6).
   void Resync(SessionCounters& c) {
+    transport::SerialPort* port = line_->port();
+    if (!port) return;
     ++c.resyncs;
-    (void)port_->Flush();
-    (void)port_->SendBreak(break_duration_);
-    (void)port_->Flush();
+    (void)port->Flush();
+    (void)port->SendBreak(break_duration_);
+    (void)port->Flush();
   }
 
-  transport::SerialConfig config_;
+  std::shared_ptr<SerialLine> line_;
+  const uint8_t address_;
   milliseconds break_duration_;
-  std::optional<transport::SerialPort> port_;
   std::optional<ReplyFraming> framing_;
   uint8_t last_first_byte_ = 0;
 };
@@ -294,7 +317,13 @@ const char* ToString(SessionEvent event) {
 absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::OpenSerial(
     const transport::SerialConfig& config, const SessionOptions& options) {
   if (auto s = transport::ValidateSerialConfig(config); !s.ok()) return s;
-  return Open(std::make_unique<SerialLink>(config, options.break_duration), options);
+  // One line object per device, shared with the other controllers on it (decision 1471).
+  auto line = SerialLine::Attach(
+      config, LineMember{options.address, options.response_address, options.owner});
+  if (!line.ok()) return line.status();
+  return Open(
+      std::make_unique<SerialLink>(*std::move(line), options.address, options.break_duration),
+      options);
 }
 
 absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::OpenCan(
@@ -331,7 +360,10 @@ absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::Open(
       !s.ok()) {
     return s;
   }
-  if (auto s = link->Open(); !s.ok()) return s;
+  {
+    auto line = link->LockLine();
+    if (auto s = link->Open(); !s.ok()) return s;
+  }
   return std::shared_ptr<ControllerSession>(new ControllerSession(std::move(link), options));
 }
 
@@ -435,8 +467,10 @@ void ControllerSession::Miss(const std::string& reason) {
 absl::StatusOr<Reply> ControllerSession::Exchange(const Command& command, Deadline deadline,
                                                   bool detect) {
   SessionCounters d;
-  // §2.5 [P]: at least command_gap after the end of the previous word (L303).
-  std::this_thread::sleep_until(last_word_end_ + options_.command_gap);
+  // §2.5 [P]: at least command_gap after the end of the previous word on the line (L303), ours
+  // or a neighbour's (decision 1471).
+  std::this_thread::sleep_until(std::max(last_word_end_, link_->LineWordEnd()) +
+                                options_.command_gap);
   // Late replies or garbage pending now would be taken for this request's reply: dropped.
   d.unsolicited += link_->Drain(d.stray_zeros);
   ++d.requests;
@@ -477,6 +511,7 @@ absl::StatusOr<Reply> ControllerSession::Exchange(const Command& command, Deadli
     }
   }
   last_word_end_ = SessionClock::now();
+  link_->SetLineWordEnd(last_word_end_);
   {
     std::lock_guard<std::mutex> lock(state_mutex_);
     Add(counters_, d);
@@ -507,7 +542,9 @@ absl::Status ControllerSession::ProbeLocked() {
       opened.ok() ? Exchange(probe, SessionClock::now() + options_.probe_timeout, /*detect=*/true)
                   : absl::StatusOr<Reply>(opened);
   const std::optional<int> rate = link_->baud();
-  if (!reply.ok() && opened.ok() && options_.reset_baud && rate && *rate != *options_.reset_baud) {
+  // Not on a shared line: the other PACKs there would lose the line rate meanwhile (1471).
+  if (!reply.ok() && opened.ok() && options_.reset_baud && rate && *rate != *options_.reset_baud &&
+      link_->Neighbours().empty()) {
     // G-40, L273, L899: a PACK that was reset (power cycle, `$CC`) talks 19200 again and ignores
     // words at our rate. One probe at the reset rate; its reset flag then re-applies `$40`.
     if (SetBaudLocked(*options_.reset_baud).ok()) {
@@ -542,6 +579,7 @@ absl::Status ControllerSession::ProbeLocked() {
 
 absl::Status ControllerSession::Probe() {
   std::lock_guard<std::mutex> lock(io_mutex_);
+  auto line = link_->LockLine();
   return ProbeLocked();
 }
 
@@ -553,6 +591,7 @@ absl::Status ControllerSession::SendTunnel(const std::vector<uint8_t>& data) {
   auto id = TunnelTransmitCanId(options_.address);
   if (!id.ok()) return id.status();
   std::lock_guard<std::mutex> lock(io_mutex_);
+  auto line = link_->LockLine();
   std::this_thread::sleep_until(last_word_end_ + options_.command_gap);
   absl::Status s = link_->SendCanFrame(*id, data);
   last_word_end_ = SessionClock::now();
@@ -580,7 +619,22 @@ absl::StatusOr<std::optional<Reply>> ControllerSession::Transact(const Command& 
   }
   if (auto s = ValidateCommand(command); !s.ok()) return s;
   std::lock_guard<std::mutex> lock(io_mutex_);
+  // A DOWN controller before its back-off answers without touching the line: a dead PACK on a
+  // shared line costs the others nothing between its probes (decision 1471).
+  if (link_state() == LinkState::kOffline && !health_.ProbeDue()) {
+    return absl::UnavailableError(absl::StrCat(Where(command), ": controller OFFLINE"));
+  }
+  auto line = LockLine(deadline);
   return TransactLocked(command, deadline);
+}
+
+std::unique_lock<std::mutex> ControllerSession::LockLine(Deadline& deadline) {
+  const Deadline before = SessionClock::now();
+  auto line = link_->LockLine();
+  // The reply time-out runs from when the word can go out: a neighbour's transaction (at most
+  // its probe time-out) on a shared line is no miss of this controller (decision 1471).
+  deadline += SessionClock::now() - before;
+  return line;
 }
 
 absl::StatusOr<std::optional<Reply>> ControllerSession::TransactLocked(const Command& command,
@@ -656,6 +710,7 @@ absl::Status ControllerSession::SetBaudLocked(int baud) {
 
 absl::Status ControllerSession::SetBaud(int baud) {
   std::lock_guard<std::mutex> lock(io_mutex_);
+  auto line = link_->LockLine();
   return SetBaudLocked(baud);
 }
 
@@ -671,9 +726,16 @@ absl::Status ControllerSession::ChangeBaud(const Command& word, Deadline deadlin
   if (auto s = ValidateCommand(word); !s.ok()) return s;
   const absl::StatusOr<int> target = BaudOfDivisor(word.values[0]);
   std::lock_guard<std::mutex> lock(io_mutex_);
+  auto line = LockLine(deadline);
   const std::optional<int> old = link_->baud();
-  // Our own port must be able to follow before the PACK is told to switch (CT-08).
+  // Our own port must be able to follow before the PACK is told to switch (CT-08), and so must
+  // the other PACKs on a shared line (decision 1471).
   if (old && !target.ok()) return target.status();
+  if (old) {
+    if (auto s = link_->CheckBaudChange(*target); !s.ok()) {
+      return absl::Status(s.code(), absl::StrCat(Where(word), ": ", s.message()));
+    }
+  }
   if (!old) return TransactLocked(word, deadline).status();  // CAN: the PACK's RS-232 only
   Command probe;
   probe.address = options_.address;

@@ -47,6 +47,9 @@ struct SessionOptions {
   std::optional<int> reset_baud;
   // G-40: after switching its own port the session waits this long before the verifying `$43`.
   std::chrono::milliseconds baud_settle{10};
+  // Who configured this controller ("drive 'feeder-x'"), named by the refusals of a shared
+  // serial line (decision 1471); empty: "address N".
+  std::string owner;
 };
 
 struct SessionCounters {
@@ -63,6 +66,9 @@ struct SessionCounters {
   uint64_t probe_failures = 0;
   uint64_t offline_events = 0;
   uint64_t io_errors = 0;  // transport failures (link closed and reopened by the next probe)
+  // Serial line shared with other controllers: replies carrying another member's RA (R9, §2.4),
+  // i.e. a neighbour's late reply, dropped (decision 1471).
+  uint64_t wrong_address = 0;
 };
 
 enum class LinkState { kUnknown, kOnline, kOffline };
@@ -97,6 +103,15 @@ class SessionLink {
  public:
   virtual ~SessionLink() = default;
   virtual std::string Name() const = 0;
+  // Held around each transaction: a link shared with other controllers (a serial line, decision
+  // 1471) carries one request/reply at a time. Empty lock: nothing shared. The calls below run
+  // under it.
+  virtual std::unique_lock<std::mutex> LockLine() { return {}; }
+  // End of the newest word on the link by any controller (§2.5 command gap); none: epoch.
+  virtual SessionClock::time_point LineWordEnd() const { return {}; }
+  virtual void SetLineWordEnd(SessionClock::time_point t) { (void)t; }
+  // The other controllers on this link, described; empty when alone.
+  virtual std::vector<std::string> Neighbours() const { return {}; }
   virtual absl::Status Open() = 0;  // no-op when already open
   virtual void Close() = 0;
   // Discards pending input before a request; returns how many bytes/frames were dropped and adds
@@ -120,6 +135,11 @@ class SessionLink {
     (void)baud;
     return absl::FailedPreconditionError("baud rate needs a serial link");
   }
+  // SetBaud's refusal before anything is sent (a rate change on a shared line, decision 1471).
+  virtual absl::Status CheckBaudChange(int baud) const {
+    (void)baud;
+    return absl::OkStatus();
+  }
   // One raw CAN frame (the `$44` RS-232 tunnel, §3.5 L307-317); serial links cannot.
   virtual absl::Status SendCanFrame(uint16_t id, const std::vector<uint8_t>& data) {
     (void)id;
@@ -130,7 +150,9 @@ class SessionLink {
 
 class ControllerSession {
  public:
-  // Serial (RS-232/RS-485 per config.duplex; SerialPort honours config.turnaround, §2.5).
+  // Serial (RS-232/RS-485 per config.duplex; SerialPort honours config.turnaround, §2.5). The
+  // device is one SerialLine shared with every other session on it (decision 1471): refused
+  // (InvalidArgument naming both owners) for other line settings or an address already on it.
   static absl::StatusOr<std::shared_ptr<ControllerSession>> OpenSerial(
       const transport::SerialConfig& config, const SessionOptions& options);
   // CAN: command ID = A << 3, reply ID = RA << 3 (§3.1). On a shared bus give every controller's
@@ -192,6 +214,8 @@ class ControllerSession {
  private:
   ControllerSession(std::unique_ptr<SessionLink> link, const SessionOptions& options);
   absl::Status ProbeLocked();
+  // link_->LockLine(), `deadline` moved on by the time spent waiting for it.
+  std::unique_lock<std::mutex> LockLine(Deadline& deadline);
   absl::StatusOr<std::optional<Reply>> TransactLocked(const Command& command, Deadline deadline);
   absl::Status SetBaudLocked(int baud);
   absl::StatusOr<Reply> Exchange(const Command& command, Deadline deadline, bool detect);

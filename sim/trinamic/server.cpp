@@ -63,6 +63,11 @@ void TrinamicServer::SetSilent(bool silent) {
   options_.faults.silent = silent;
 }
 
+void TrinamicServer::SetUnitSilent(size_t index, bool silent) {
+  std::lock_guard lock(mu_);
+  units_.at(index).silent = silent;
+}
+
 void TrinamicServer::LoseSteps(int motor, int64_t steps) {
   WithController([&](Controller& c) { c.LoseSteps(motor, steps); });
 }
@@ -128,7 +133,7 @@ void TrinamicServer::AdvanceUnitLocked(Unit& unit, TimePoint now) {
 }
 
 void TrinamicServer::ReplyLocked(const Unit& unit, std::vector<uint8_t> bytes, TimePoint at) {
-  if (options_.faults.silent) return;
+  if (options_.faults.silent || unit.silent) return;
   if (reply_impairment_) {
     const transport::ImpairmentDecision d = reply_impairment_->Decide();
     if (d.drop) {

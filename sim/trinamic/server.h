@@ -65,6 +65,9 @@ class TrinamicServer {
 
   // ---- fault injection and introspection (take effect at clock.Now()) ----
   void SetSilent(bool silent);
+  // Unit `index` alone (0 = options.controller, then options.more_units) executes words but never
+  // answers: a dead PACK among live ones on one RS-485 line (decision 1471).
+  void SetUnitSilent(size_t index, bool silent);
   // Seeded faults on the serial line (decision 1421): `host_words` applies to every complete
   // word from the host before the units execute it, `replies` to every reply. Only drop and
   // corrupt: a UART line neither duplicates nor reorders, delays are the PACK's turnaround.
@@ -99,6 +102,7 @@ class TrinamicServer {
     Controller controller;
     WordAssembler words;
     uint64_t resets_seen = 0;
+    bool silent = false;  // SetUnitSilent
   };
   struct PendingReply {
     TimePoint due;

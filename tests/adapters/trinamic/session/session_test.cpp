@@ -451,6 +451,43 @@ TEST(SessionTest, Transact_OtherAddress_InvalidArgument) {
             absl::StatusCode::kInvalidArgument);
 }
 
+// Decision 1471: on a line shared with the controller at address 2 (RA $F1), an R9 reply that
+// starts with $F1 is that controller's late reply: counted and dropped, ours still taken.
+TEST(TrinamicSharedLineTest, ReplyWithNeighboursRa_CountedDroppedOwnReplyTaken) {
+  ScriptedController ctl(ReplyFraming::kR9);
+  ctl.SetScript([&](const Command& c) {
+    std::vector<uint8_t> out;
+    if (c.opcode == Opcode::kQueryPosition) {
+      Reply late;  // the neighbour's `$20` reply, arriving after its time-out
+      late.response_address = 0xF1;
+      late.opcode = Opcode::kQueryPosition;
+      late.values = {0, 999, 0, 0, 0, 0, 0};
+      out = ReplyBytes(late, ReplyFraming::kR9);
+    }
+    const std::vector<uint8_t> own = ctl.Default(c);
+    out.insert(out.end(), own.begin(), own.end());
+    return out;
+  });
+  auto a = OpenSession(ctl);
+  SessionOptions bo = FastOptions();
+  bo.address = 2;
+  bo.response_address = 0xF1;
+  transport::SerialConfig config;
+  config.device = ctl.path();
+  config.baud = 19200;
+  auto b = ControllerSession::OpenSerial(config, bo);  // on the line, idle
+  ASSERT_NE(a, nullptr);
+  ASSERT_TRUE(b.ok()) << b.status();
+  auto r = a->Transact(QueryPosition(3), In(milliseconds(300)));
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_TRUE(r->has_value());
+  EXPECT_EQ((*r)->values[1], 3000);  // ours (motnr × 1000), not the neighbour's 999
+  const SessionCounters c = a->counters();
+  EXPECT_EQ(c.wrong_address, 1u);
+  EXPECT_EQ(c.garbage, 0u);
+  EXPECT_EQ(a->health().state, HealthState::kUp);
+}
+
 uint16_t UniquePort() {
   static std::atomic<int> next{0};
   return static_cast<uint16_t>(20000 + (::getpid() * 16 + 7 + next++) % 40000);
