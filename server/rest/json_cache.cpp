@@ -26,32 +26,27 @@ absl::StatusOr<std::string> JsonCache::Print(const google::protobuf::Message& ms
   }
   // The type is part of the key: two types can share wire bytes.
   const google::protobuf::Descriptor* type = msg.GetDescriptor();
-  Slot* slot = &slots_[std::hash<std::string_view>{}(key) % kSlots];
+  const size_t slot = std::hash<std::string_view>{}(key) % kSlots;
+  std::shared_ptr<const Entry> entry;
   {
     std::lock_guard lock(mu_);
-    if (slot->type == type && slot->key == key) {
-      ++hits_;
-      return slot->json;
-    }
-    ++misses_;
+    entry = slots_[slot];
   }
+  if (entry != nullptr && entry->type == type && entry->key == key) {
+    hits_.fetch_add(1, std::memory_order_relaxed);
+    return entry->json;
+  }
+  misses_.fetch_add(1, std::memory_order_relaxed);
   absl::StatusOr<std::string> json = PrintJson(msg);
   if (!json.ok()) return json;
+  auto printed = std::make_shared<const Entry>(Entry{type, key, *json});
   std::lock_guard lock(mu_);
-  slot->type = type;
-  slot->key = key;
-  slot->json = *json;
+  slots_[slot] = std::move(printed);
   return json;
 }
 
-uint64_t JsonCache::hits() const {
-  std::lock_guard lock(mu_);
-  return hits_;
-}
+uint64_t JsonCache::hits() const { return hits_.load(std::memory_order_relaxed); }
 
-uint64_t JsonCache::misses() const {
-  std::lock_guard lock(mu_);
-  return misses_;
-}
+uint64_t JsonCache::misses() const { return misses_.load(std::memory_order_relaxed); }
 
 }  // namespace drivegw::rest

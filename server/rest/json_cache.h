@@ -5,7 +5,9 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <string>
 
@@ -32,15 +34,17 @@ class JsonCache {
   // One entry per slot, chosen by the hash of the key: a few drives polled in turn each keep
   // their own slot; a collision only costs a print.
   static constexpr size_t kSlots = 64;
-  struct Slot {
-    const google::protobuf::Descriptor* type = nullptr;  // null: empty slot
+  struct Entry {
+    const google::protobuf::Descriptor* type = nullptr;
     std::string key;  // deterministic wire bytes of the printed message
     std::string json;
   };
-  mutable std::mutex mu_;
-  std::array<Slot, kSlots> slots_;
-  uint64_t hits_ = 0;
-  uint64_t misses_ = 0;
+  // Entries are immutable once stored: the lock only guards swapping the pointers, and the
+  // comparison and the copy of the text run outside it (two Beast threads share a route).
+  std::mutex mu_;
+  std::array<std::shared_ptr<const Entry>, kSlots> slots_;
+  std::atomic<uint64_t> hits_{0};
+  std::atomic<uint64_t> misses_{0};
 };
 
 }  // namespace drivegw::rest
