@@ -37,6 +37,7 @@
 #include "google/protobuf/util/json_util.h"
 #include "server/core/drive_service.h"
 #include "server/gateway.h"
+#include "server/rest/json_cache.h"
 #include "server/rest/json_print.h"
 
 namespace {
@@ -251,6 +252,11 @@ struct CoreCosts {
   double get_drive_us = 0;
   double print_json_us = 0;
   double message_to_json_us = 0;
+  // JsonCache::Print of the same unchanged Drive (a hit: serialise, hash, compare, copy;
+  // decision 1361), and how often x1's Drive message changes while the gateway runs (each
+  // change costs the next GET one print).
+  double cache_hit_us = 0;
+  double changes_per_s = 0;
 };
 CoreCosts MeasureCore(drivegw::server::DriveServiceCore& core, int n) {
   google::protobuf::util::JsonPrintOptions o;
@@ -276,6 +282,21 @@ CoreCosts MeasureCore(drivegw::server::DriveServiceCore& core, int n) {
     bytes += json.size();
   }
   c.message_to_json_us = 1e6 * (ThreadCpuSeconds() - t0) / n;
+  drivegw::rest::JsonCache cache;
+  t0 = ThreadCpuSeconds();
+  for (int i = 0; i < n; ++i) bytes += cache.Print(*d)->size();
+  c.cache_hit_us = 1e6 * (ThreadCpuSeconds() - t0) / n;
+  // Distinct Drive messages seen polling every 100 µs for 0.5 s.
+  std::string last, now;
+  long changes = 0;
+  const auto poll_end = Clock::now() + std::chrono::milliseconds(500);
+  while (Clock::now() < poll_end) {
+    if (!core.GetDrive(req, cc)->SerializeToString(&now)) Die("serialise failed");
+    if (now != last) ++changes;
+    last.swap(now);
+    std::this_thread::sleep_for(std::chrono::microseconds(100));
+  }
+  c.changes_per_s = static_cast<double>(changes) / 0.5;
   if (bytes == 0) Die("empty JSON");
   return c;
 }
@@ -344,6 +365,10 @@ int main(int argc, char** argv) {
               "", "", core_costs.print_json_us);
   std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  MessageToJsonString of it, replaced", "", "", "",
               "", core_costs.message_to_json_us);
+  std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  JSON cache hit for it (one thread)", "", "", "",
+              "", core_costs.cache_hit_us);
+  std::printf("x1's Drive changes %.0f times/s (each costs the next GET one print)\n",
+              core_costs.changes_per_s);
   std::printf("%-44s %10.0f %9.1f %9.1f %9ld %9.1f\n", "  over in-process gRPC (decision 501)",
               gg.rps, gg.p50, gg.p99, gg.n, gg.cpu_us);
   std::printf("%-44s %10.0f %9.1f %9.1f %9ld %9.1f\n",
@@ -375,6 +400,8 @@ int main(int argc, char** argv) {
         {"core_get_drive_cpu_us", core_costs.get_drive_us},
         {"print_json_cpu_us", core_costs.print_json_us},
         {"message_to_json_cpu_us", core_costs.message_to_json_us},
+        {"json_cache_hit_cpu_us", core_costs.cache_hit_us},
+        {"drive_changes_per_s", core_costs.changes_per_s},
         {"ratio_to_own_fixed_route", fixed_ratio},
         {"grpc_path_rps", gg.rps},
         {"grpc_path_ratio", grpc_ratio},

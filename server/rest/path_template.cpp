@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <set>
 
+#include "absl/container/inlined_vector.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 
 namespace drivegw::rest {
@@ -256,7 +256,8 @@ std::optional<std::vector<PathBinding>> PathTemplate::Match(std::string_view pat
     if (path.substr(colon + 1) != verb_) return std::nullopt;
     path = path.substr(0, colon);
   }
-  std::vector<std::string_view> raw;
+  // Inline storage: the API's templates have at most a handful of segments (decision 1362).
+  absl::InlinedVector<std::string_view, 8> raw;
   for (absl::string_view part : absl::StrSplit(Av(path), '/'))
     raw.emplace_back(part.data(), part.size());
   const bool multi_last = !segments_.empty() && segments_.back().kind == SegmentKind::kMulti;
@@ -267,6 +268,10 @@ std::optional<std::vector<PathBinding>> PathTemplate::Match(std::string_view pat
   for (size_t i = 0; i < fixed; ++i) {
     if (raw[i].empty()) return std::nullopt;  // "*" and literals need a non-empty segment
     if (segments_[i].kind == SegmentKind::kLiteral) {
+      if (raw[i].find('%') == std::string_view::npos) {  // nothing to decode
+        if (raw[i] != segments_[i].literal) return std::nullopt;
+        continue;
+      }
       auto decoded = PercentDecode(raw[i]);
       if (!decoded || *decoded != segments_[i].literal) return std::nullopt;
     }
@@ -278,13 +283,19 @@ std::optional<std::vector<PathBinding>> PathTemplate::Match(std::string_view pat
                        segments_[var.end_segment - 1].kind == SegmentKind::kMulti;
     const size_t end =
         var.end_segment == segments_.size() && multi_last ? raw.size() : var.end_segment;
-    std::vector<std::string> parts;
+    // The decoded segments joined by '/', appended in place (a segment without '%' as is).
+    std::string value;
     for (size_t i = var.first_segment; i < end; ++i) {
+      if (i > var.first_segment) value.push_back('/');
+      if (raw[i].find('%') == std::string_view::npos) {
+        value.append(raw[i]);
+        continue;
+      }
       auto decoded = PercentDecode(raw[i], /*keep_slash=*/multi);
       if (!decoded) return std::nullopt;
-      parts.push_back(std::move(*decoded));
+      value.append(*decoded);
     }
-    bindings.push_back({var.field_path, absl::StrJoin(parts, "/")});
+    bindings.push_back({var.field_path, std::move(value)});
   }
   return bindings;
 }

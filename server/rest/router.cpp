@@ -34,6 +34,7 @@
 #include "google/protobuf/util/json_util.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
+#include "server/rest/json_cache.h"
 #include "server/rest/json_print.h"
 #include "server/rest/static_assets.h"
 
@@ -285,15 +286,17 @@ bool FromByteBuffer(const grpc::ByteBuffer& buffer, pb::Message* msg) {
   return bytes && msg->ParseFromString(*bytes);
 }
 
-// Response message -> JSON, or the part named by the rule's response_body.
-absl::StatusOr<std::string> ResponseJson(const pb::Message& msg, const std::string& response_body) {
+// Response message -> JSON, or the part named by the rule's response_body; through `cache` when
+// given (decision 1361).
+absl::StatusOr<std::string> ResponseJson(const pb::Message& msg, const std::string& response_body,
+                                         JsonCache* cache) {
   const pb::Message* out = &msg;
   if (!response_body.empty()) {
     const auto* f = msg.GetDescriptor()->FindFieldByName(response_body);
     out = &msg.GetReflection()->GetMessage(msg, f);
   }
   // PrintJson: MessageToJsonString's bytes, mostly without its cost (decision 1332).
-  auto json = PrintJson(*out);
+  auto json = cache != nullptr ? cache->Print(*out) : PrintJson(*out);
   if (!json.ok()) {
     return absl::InternalError(absl::StrCat("response to JSON: ", json.status().message()));
   }
@@ -303,9 +306,9 @@ absl::StatusOr<std::string> ResponseJson(const pb::Message& msg, const std::stri
 // What a finished unary call answers, for the gRPC and the direct path alike: the mapped
 // error, or `out` (or its response_body part) as JSON.
 HttpResponse UnaryResponse(const grpc::Status& status, const pb::Message& out,
-                           const std::string& response_body) {
+                           const std::string& response_body, JsonCache* cache = nullptr) {
   if (!status.ok()) return ErrorFromGrpc(status);
-  auto json = ResponseJson(out, response_body);
+  auto json = ResponseJson(out, response_body, cache);
   if (!json.ok()) return ErrorResponse(500, kInternal, std::string(json.status().message()));
   return JsonResponse(200, *std::move(json));
 }
@@ -663,6 +666,8 @@ absl::Status AddRoutes(const pb::MethodDescriptor* m, const google::api::HttpRul
       return absl::InvalidArgumentError(
           absl::StrCat(where, ": path variable ", var.field_path, " must be a singular scalar"));
     }
+    route.variable_names.push_back(FieldPathName(*fields));
+    route.variable_fields.push_back(*std::move(fields));
   }
   route.body = rule.body();
   if (!route.body.empty() && route.body != "*" &&
@@ -741,6 +746,7 @@ absl::StatusOr<std::unique_ptr<Router>> Router::Create(RouterOptions options) {
             absl::StrCat("rest router: direct handler for ", path, " must be a unary method's"));
       }
       route.direct = handler;
+      route.json_cache = std::make_shared<JsonCache>();
       found = true;
     }
     if (!found) {
@@ -922,23 +928,23 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
     }
   }
 
-  // 2. Path variables; they win over the body.
-  std::set<std::string> bound;
-  for (const PathBinding& b : bindings) {
-    auto fields = ResolvePath(input, b.field_path);
-    if (!fields.ok()) {  // checked in Create; only a descriptor change gets here
-      sink->OnResponse(ErrorResponse(500, kInternal, std::string(fields.status().message())));
-      return;
-    }
-    if (auto s = SetPath(msg.get(), *fields, b.value); !s.ok()) {
+  // 2. Path variables; they win over the body. Their fields were resolved in Create (AddRoutes),
+  // in the order Match binds them.
+  if (bindings.size() != route.variable_fields.size()) {  // Match and the template disagree
+    sink->OnResponse(ErrorResponse(500, kInternal, "rest router: path bindings inconsistent"));
+    return;
+  }
+  for (size_t i = 0; i < bindings.size(); ++i) {
+    const PathBinding& b = bindings[i];
+    if (auto s = SetPath(msg.get(), route.variable_fields[i], b.value); !s.ok()) {
       bad_request(absl::StrCat("path parameter ", b.field_path), s.message(), b.field_path);
       return;
     }
-    bound.insert(FieldPathName(*fields));
   }
 
   // 3. Query parameters name the remaining fields (repeated ones may repeat).
   std::set<std::string> seen;
+  const std::vector<std::string>& bound = route.variable_names;
   for (absl::string_view pair : absl::StrSplit(Av(query), '&', absl::SkipEmpty())) {
     const size_t eq = pair.find('=');
     auto key = PercentDecode(Sv(pair.substr(0, eq)), false, true);
@@ -960,7 +966,7 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
       bad_request(absl::StrCat("query parameter ", *key), "set it in the JSON body instead", *key);
       return;
     }
-    if (bound.count(name) > 0) {
+    if (std::find(bound.begin(), bound.end(), name) != bound.end()) {
       bad_request(absl::StrCat("query parameter ", *key), "bound by the path", *key);
       return;
     }
@@ -1042,7 +1048,7 @@ void Router::HandleDirect(const Route& route, const pb::Message& in, const HttpR
   }
   std::unique_ptr<pb::Message> out = NewMessage(route.method->output_type());
   const grpc::Status status = route.direct(request, in, out.get());
-  sink->OnResponse(UnaryResponse(status, *out, route.response_body));
+  sink->OnResponse(UnaryResponse(status, *out, route.response_body, route.json_cache.get()));
 }
 
 void Router::HandleHealth(const std::shared_ptr<ResponseSink>& sink) noexcept {

@@ -18,6 +18,7 @@
 #include "server/rest/path_template.h"
 
 namespace google::protobuf {
+class FieldDescriptor;
 class Message;
 class MethodDescriptor;
 }  // namespace google::protobuf
@@ -27,6 +28,7 @@ class Channel;
 
 namespace drivegw::rest {
 
+class JsonCache;
 struct WebAssetSet;
 
 struct HttpRequest {
@@ -149,6 +151,13 @@ struct Route {
   std::string grpc_path;  // "/drivegw.v1.DriveService/MoveAbsolute"
   bool server_streaming = false;
   DirectUnary direct;  // set: served by RouterOptions::direct_unary, not over gRPC
+  // Per path variable, in path.variables() order (the order Match binds them): its request
+  // field path resolved once in Create, and that path's proto field names joined by "."
+  // (decision 1362: no descriptor lookup per request).
+  std::vector<std::vector<const google::protobuf::FieldDescriptor*>> variable_fields;
+  std::vector<std::string> variable_names;
+  // Direct routes: their responses' printed JSON by message content (decision 1361).
+  std::shared_ptr<JsonCache> json_cache;
 };
 
 class Router {

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "adapters/core/clock.h"
+#include "google/protobuf/util/json_util.h"
 #include "server/auth/authenticator.h"
 #include "server/core/drive_service.h"
 #include "server/grpc/call_auth.h"
@@ -25,12 +26,14 @@
 #include "server/grpc/worker_pool.h"
 #include "server/ops/metrics.h"
 #include "server/ops/rpc_metrics.h"
+#include "server/rest/json_cache.h"
 #include "server/rest/router.h"
 #include "storage/audit_log.h"
 #include "storage/db.h"
 #include "storage/migrations.h"
 #include "storage/token_repo.h"
 #include "tests/server/core/core_test_support.h"
+#include "tests/server/core/fake_drive.h"
 #include "tests/server/rest/recording_sink.h"
 
 namespace drivegw::rest {
@@ -291,6 +294,192 @@ TEST_F(DirectReadsTest, Handle_AfterCancelAll_503LikeGrpcPath) {
   EXPECT_EQ(b.status, 503);
   EXPECT_EQ(b.status, a.status);
   EXPECT_EQ(b.body, a.body);
+}
+
+// A drive whose whole status snapshot, link counters and endpoint the test sets, without moving
+// the sequence unless the test does: the JSON cache must not rely on it (decision 1361).
+class ScriptedDrive final : public Drive {
+ public:
+  ScriptedDrive() : config_(server::test_support::FakeDrive::Config("s1", "linudp")) {}
+
+  void Edit(const std::function<void(DriveStatus&, LinkHealth&, std::string&)>& edit) {
+    std::lock_guard lock(mu_);
+    edit(status_, link_, endpoint_);
+  }
+
+  const DriveConfig& config() const override { return config_; }
+  std::string endpoint() const override {
+    std::lock_guard lock(mu_);
+    return endpoint_;
+  }
+  absl::Status Activate() override { return absl::OkStatus(); }
+  void Deactivate() override {}
+  Lifecycle lifecycle() const override { return Lifecycle::kActive; }
+  absl::StatusOr<CommandInfo> Enable() override { return absl::UnimplementedError("scripted"); }
+  absl::StatusOr<CommandInfo> Disable() override { return absl::UnimplementedError("scripted"); }
+  absl::StatusOr<CommandInfo> Home() override { return absl::UnimplementedError("scripted"); }
+  absl::StatusOr<CommandInfo> Move(const MotionCommand&) override {
+    return absl::UnimplementedError("scripted");
+  }
+  absl::StatusOr<CommandInfo> AcknowledgeFault() override {
+    return absl::UnimplementedError("scripted");
+  }
+  absl::StatusOr<int64_t> ReadParameter(const ParameterRef&) override {
+    return absl::UnimplementedError("scripted");
+  }
+  absl::Status WriteParameter(const ParameterRef&, int64_t) override {
+    return absl::UnimplementedError("scripted");
+  }
+  absl::StatusOr<NativeReply> SendNative(const NativeRequest&) override {
+    return absl::UnimplementedError("scripted");
+  }
+  DriveStatus GetStatus() const override {
+    std::lock_guard lock(mu_);
+    return status_;
+  }
+  LinkHealth link_health() const override {
+    std::lock_guard lock(mu_);
+    return link_;
+  }
+  std::optional<CommandInfo> GetCommand(uint64_t) const override { return std::nullopt; }
+  DriveStatus WaitForStatus(uint64_t, std::chrono::steady_clock::time_point) const override {
+    return GetStatus();
+  }
+
+ private:
+  const DriveConfig config_;
+  mutable std::mutex mu_;
+  DriveStatus status_;
+  LinkHealth link_;
+  std::string endpoint_ = "udp://127.0.0.1:49360";
+};
+
+// Every kind of field the printed Drive carries, changed one at a time with the status sequence
+// left alone: the next direct GET (and list) prints it, equal to protobuf's own printing of a
+// fresh GetDrive; an unchanged drive is answered from the cache.
+TEST(DirectReadsCacheTest, EveryStatusFieldChange_VisibleInNextGet) {
+  auto drive = std::make_shared<ScriptedDrive>();
+  server::DriveServiceCore core({drive}, nullptr);
+  ops::Registry registry;
+  ops::RpcMetrics metrics(registry, {{"s1", "linudp"}});
+  RouterOptions o;
+  // Never called: every route this test asks is direct.
+  o.channel = grpc::CreateChannel("127.0.0.1:1", grpc::InsecureChannelCredentials());
+  o.direct_unary = DriveServiceDirectReads(core, server::CallAuth::Open(), metrics);
+  auto router = Router::Create(std::move(o));
+  ASSERT_TRUE(router.ok()) << router.status();
+  const JsonCache* get_cache = nullptr;
+  for (const Route& r : (*router)->routes()) {
+    if (r.grpc_path == "/drivegw.v1.DriveService/GetDrive") get_cache = r.json_cache.get();
+  }
+  ASSERT_NE(get_cache, nullptr);
+
+  const auto expected = [&] {
+    v1::GetDriveRequest req;
+    req.set_name("drives/s1");
+    auto d = core.GetDrive(req, {});
+    EXPECT_TRUE(d.ok()) << d.status();
+    google::protobuf::util::JsonPrintOptions po;
+    po.always_print_primitive_fields = true;
+    po.preserve_proto_field_names = true;
+    std::string json;
+    EXPECT_TRUE(google::protobuf::util::MessageToJsonString(*d, &json, po).ok());
+    return json;
+  };
+  const auto get = [&](const std::string& target) {
+    HttpRequest r;
+    r.method = "GET";
+    r.target = target;
+    auto sink = std::make_shared<test_support::RecordingSink>();
+    (*router)->Handle(r, sink);
+    HttpResponse resp = sink->Response();
+    EXPECT_EQ(resp.status, 200) << resp.body;
+    return resp.body;
+  };
+  const auto t = [](int64_t s) { return WallTime(std::chrono::seconds(s)); };
+  using Edit = std::function<void(DriveStatus&, LinkHealth&, std::string&)>;
+  const std::vector<std::pair<std::string, Edit>> edits = {
+      {"state", [](DriveStatus& s, LinkHealth&, std::string&) { s.state = DriveState::kReady; }},
+      {"native main", [](DriveStatus& s, LinkHealth&, std::string&) { s.native.main_state = 8; }},
+      {"native sub", [](DriveStatus& s, LinkHealth&, std::string&) { s.native.sub_state = 2; }},
+      {"native text", [](DriveStatus& s, LinkHealth&, std::string&) { s.native.text = "Op"; }},
+      {"status word", [](DriveStatus& s, LinkHealth&, std::string&) { s.native.status_word = 7; }},
+      {"warn word", [](DriveStatus& s, LinkHealth&, std::string&) { s.native.warn_word = 1; }},
+      {"position", [](DriveStatus& s, LinkHealth&, std::string&) { s.position_mm = 12.5; }},
+      {"position 0", [](DriveStatus& s, LinkHealth&, std::string&) { s.position_mm = 0.0; }},
+      {"position -0", [](DriveStatus& s, LinkHealth&, std::string&) { s.position_mm = -0.0; }},
+      {"position ulp",
+       [](DriveStatus& s, LinkHealth&, std::string&) { s.position_mm = 0.1 + 0.2; }},
+      {"velocity", [](DriveStatus& s, LinkHealth&, std::string&) { s.velocity_mm_s = -3; }},
+      {"demand", [](DriveStatus& s, LinkHealth&, std::string&) { s.demand_position_mm = 4; }},
+      {"homed", [](DriveStatus& s, LinkHealth&, std::string&) { s.homed = true; }},
+      {"in target", [](DriveStatus& s, LinkHealth&, std::string&) { s.in_target = true; }},
+      {"motion", [](DriveStatus& s, LinkHealth&, std::string&) { s.motion_active = true; }},
+      {"warning added",
+       [](DriveStatus& s, LinkHealth&, std::string&) { s.warnings.push_back("hot"); }},
+      {"warning text", [](DriveStatus& s, LinkHealth&, std::string&) { s.warnings[0] = "cold"; }},
+      {"warning removed", [](DriveStatus& s, LinkHealth&, std::string&) { s.warnings.clear(); }},
+      {"fault",
+       [](DriveStatus& s, LinkHealth&, std::string&) {
+         s.fault = {3, "E3", false};
+       }},
+      {"fault fatal", [](DriveStatus& s, LinkHealth&, std::string&) { s.fault.fatal = true; }},
+      {"fault cleared", [](DriveStatus& s, LinkHealth&, std::string&) { s.fault = {}; }},
+      {"last command",
+       [&](DriveStatus& s, LinkHealth&, std::string&) {
+         s.last_command = CommandInfo{4, "Home", CommandState::kActive, "", t(100), {}, {}};
+       }},
+      {"command progress",
+       [](DriveStatus& s, LinkHealth&, std::string&) { s.last_command->progress = 0.5; }},
+      {"command ended",
+       [&](DriveStatus& s, LinkHealth&, std::string&) {
+         s.last_command->state = CommandState::kDone;
+         s.last_command->ended = t(101);
+       }},
+      {"command message",
+       [](DriveStatus& s, LinkHealth&, std::string&) { s.last_command->message = "ok"; }},
+      {"command gone", [](DriveStatus& s, LinkHealth&, std::string&) { s.last_command.reset(); }},
+      {"time", [&](DriveStatus& s, LinkHealth&, std::string&) { s.time = t(200); }},
+      {"time ns",
+       [&](DriveStatus& s, LinkHealth&, std::string&) { s.time += std::chrono::nanoseconds(1); }},
+      {"sequence", [](DriveStatus& s, LinkHealth&, std::string&) { s.sequence = 9; }},
+      {"health",
+       [&](DriveStatus& s, LinkHealth&, std::string&) {
+         s.health = HealthInfo{HealthState::kUp, t(50), 0, ""};
+       }},
+      {"health state",
+       [](DriveStatus& s, LinkHealth&, std::string&) { s.health->state = HealthState::kDown; }},
+      {"health failures",
+       [](DriveStatus& s, LinkHealth&, std::string&) { s.health->consecutive_failures = 3; }},
+      {"health reason",
+       [](DriveStatus& s, LinkHealth&, std::string&) { s.health->reason = "3 time-outs"; }},
+      {"health gone", [](DriveStatus& s, LinkHealth&, std::string&) { s.health.reset(); }},
+      {"link requests", [](DriveStatus&, LinkHealth& l, std::string&) { ++l.requests; }},
+      {"link replies", [](DriveStatus&, LinkHealth& l, std::string&) { ++l.replies; }},
+      {"link missed", [](DriveStatus&, LinkHealth& l, std::string&) { ++l.missed; }},
+      {"link round trip",
+       [](DriveStatus&, LinkHealth& l, std::string&) { l.last_round_trip_ms = 0.25; }},
+      {"endpoint", [](DriveStatus&, LinkHealth&, std::string& e) { e = "udp://10.0.0.2:49360"; }},
+  };
+  std::string before = get("/v1/drives/s1");
+  EXPECT_EQ(before, expected());
+  std::string list_before = get("/v1/drives");
+  for (const auto& [what, edit] : edits) {
+    SCOPED_TRACE(what);
+    drive->Edit(edit);
+    const std::string now = get("/v1/drives/s1");
+    EXPECT_NE(now, before);  // the edit is visible at once
+    EXPECT_EQ(now, expected());
+    const std::string list = get("/v1/drives");
+    EXPECT_NE(list, list_before);
+    EXPECT_NE(list.find(now), std::string::npos);  // the list holds the same drive JSON
+    before = now;
+    list_before = list;
+    // Unchanged: the same bytes, from the cache.
+    const uint64_t hits = get_cache->hits();
+    EXPECT_EQ(get("/v1/drives/s1"), now);
+    EXPECT_EQ(get_cache->hits(), hits + 1);
+  }
 }
 
 }  // namespace
