@@ -77,13 +77,14 @@ TEST(StoberConfigTest, MinimalAxis_NodeIdBusAndCanOpenDefaults) {
   EXPECT_EQ(d.canopen.sdo_timeout, milliseconds(1000));
   EXPECT_EQ(d.canopen.sdo_retries, 3);               // decision 1481
   EXPECT_EQ(d.canopen.rpdo_transmission_type, 255);  // event-driven (decision 1119)
+  EXPECT_EQ(d.canopen.master_node_id, 127);          // the gateway's own node (decision 1483)
   EXPECT_EQ(d.axis.min_mm, -100);
 }
 
 TEST(StoberConfigTest, CanOpenKeys_Applied) {
   auto cfg = ParseConfig(With("node_id: 3", R"(node_id: 127
     canopen: {heartbeat_ms: 50, heartbeat_timeout_ms: 200, sync_period_ms: 4, sdo_timeout_ms: 300,
-              sdo_retries: 0})"));
+              sdo_retries: 0, master_node_id: 1})"));
   ASSERT_TRUE(cfg.ok()) << cfg.status();
   const DriveConfig& d = cfg->drives[0];
   EXPECT_EQ(d.node_id, std::optional<uint8_t>(127));
@@ -92,6 +93,8 @@ TEST(StoberConfigTest, CanOpenKeys_Applied) {
   EXPECT_EQ(d.canopen.sync_period, milliseconds(4));
   EXPECT_EQ(d.canopen.sdo_timeout, milliseconds(300));
   EXPECT_EQ(d.canopen.sdo_retries, 0);
+  // Node 127 is the default gateway node ID (decision 1483): free it by choosing another.
+  EXPECT_EQ(d.canopen.master_node_id, 1);
   // "canopen:" alone keeps every default.
   auto empty = ParseConfig(With("node_id: 3", "node_id: 1\n    canopen:"));
   ASSERT_TRUE(empty.ok()) << empty.status();

@@ -41,6 +41,7 @@ constexpr uint8_t kNode = 5;
 constexpr uint8_t kMaster = 126;
 constexpr uint16_t kConsumerMs = 300;
 constexpr double kQuickStopDeceleration = 2000;  // u/s²
+constexpr double kQuickStopJerk = 200000;        // u/s³
 constexpr double kVelocity = 100;                // u/s
 
 std::vector<uint8_t> Le(uint32_t v, int bytes) {
@@ -55,6 +56,7 @@ class SimWatchdogTest : public ::testing::Test {
     ss::AxisDeviceOptions o;
     o.core.start_operation_enabled = true;
     o.core.quick_stop_deceleration = kQuickStopDeceleration;
+    o.core.quick_stop_jerk = kQuickStopJerk;
     device_ = std::make_unique<ss::AxisDevice>(o);
     sc::SlaveNodeOptions n;
     n.node_id = kNode;
@@ -138,13 +140,15 @@ TEST_F(SimWatchdogTest, HeartbeatsStop_QuickStopWithinConsumerTimeThenSwitchOnDi
   EXPECT_THAT(Reaction()->text, HasSubstr("6007h = 3 quick stop"));
   EXPECT_TRUE(SentEmcy(co::emcy_code::kLifeGuardHeartbeat)) << "CiA 301: EMCY 8130h";
   const double at_detection = Position();
-  // Quick-stop ramp: v / a = 50 ms; then the position holds and the drive is Switch on disabled
-  // (6007h = 3 → transition 11; quick stop option 2 → 12, decision 1143).
+  // Quick-stop ramp: about v / a + a / j = 60 ms; then the position holds and the drive is Switch
+  // on disabled (6007h = 3 → transition 11; quick stop option 2 → 12, decision 1143).
   Advance(100ms);
   const double stopped = Position();
   Advance(500ms);
   EXPECT_DOUBLE_EQ(Position(), stopped) << "still moving after the quick stop";
-  const double braking = kVelocity * kVelocity / (2 * kQuickStopDeceleration);  // 2.5 u
+  // Jerk-limited ramp: v²/2a plus v·a/2j for the jerk phases (2.5 + 0.5 u).
+  const double braking = kVelocity * kVelocity / (2 * kQuickStopDeceleration) +
+                         kVelocity * kQuickStopDeceleration / (2 * kQuickStopJerk);
   EXPECT_LE(stopped - at_detection, braking + kVelocity * 0.002);
   EXPECT_LT(stopped, 1000);
   EXPECT_EQ(device_->core().power_state(), ss::PowerState::kSwitchOnDisabled);
