@@ -28,6 +28,7 @@
 #include "adapters/stober/object_map.h"
 #include "tests/e2e/child_process.h"
 #include "tests/e2e/http_client.h"
+#include "tests/reliability/gateway_process.h"
 
 namespace drivegw::testing {
 namespace {
@@ -49,17 +50,6 @@ constexpr double kQuickStopDecel = 10000;  // I11 at power-on, u/s² (sim/stober
 // several builds: the reaction may be seen this much later than the ideal bound.
 constexpr auto kSchedulingMargin = 700ms;
 
-bool Eventually(const std::function<bool()>& pred, std::chrono::milliseconds timeout,
-                const std::function<bool()>& alive = nullptr) {
-  const auto deadline = Clock::now() + timeout;
-  while (Clock::now() < deadline) {
-    if (pred()) return true;
-    if (alive && !alive()) return pred();
-    std::this_thread::sleep_for(20ms);
-  }
-  return pred();
-}
-
 class StoberWatchdogProcessTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -77,8 +67,9 @@ class StoberWatchdogProcessTest : public ::testing::Test {
                                  std::to_string(kNode)},
         dir_ + "/sim.log");
     ASSERT_TRUE(sim_->started()) << "posix_spawn error " << sim_->spawn_error();
-    ASSERT_TRUE(Eventually([&] { return sim_->log().find("stober node") != std::string::npos; },
-                           kDeadline, [&] { return sim_->Running(); }))
+    ASSERT_TRUE(Eventually(
+        [&] { return sim_->log().find("stober node") != std::string::npos || !sim_->Running(); },
+        kDeadline))
         << sim_->Describe();
 
     const std::string config = dir_ + "/drivegw.yaml";
@@ -96,19 +87,10 @@ class StoberWatchdogProcessTest : public ::testing::Test {
                           << "    timeouts: {request_ms: 10000, accept_ms: 2000}\n"
                           << "    axis: {min_mm: -10000, max_mm: 10000, max_velocity_mm_s: 1000, "
                           << "max_acceleration_mm_s2: 10000}\n";
-    gateway_ = std::make_unique<ChildProcess>(
-        std::vector<std::string>{DGW_GATEWAY_BIN, "--config", config}, dir_ + "/drivegw.log");
-    ASSERT_TRUE(gateway_->started()) << "posix_spawn error " << gateway_->spawn_error();
-    ASSERT_TRUE(Eventually(
-        [&] {
-          const std::string log = gateway_->log();
-          const size_t at = log.find("HTTP on :");
-          if (at == std::string::npos) return false;
-          http_port_ = std::atoi(log.c_str() + at + 9);
-          return http_port_ > 0;
-        },
-        kDeadline, [&] { return gateway_->Running(); }))
-        << gateway_->Describe();
+    gateway_ = std::make_unique<GatewayProcess>(DGW_GATEWAY_BIN, config, dir_ + "/drivegw.log");
+    ASSERT_TRUE(gateway_->started());
+    http_port_ = gateway_->WaitForHttpPort(kDeadline);
+    ASSERT_GT(http_port_, 0) << gateway_->Log();
   }
 
   void TearDown() override {
@@ -150,20 +132,20 @@ class StoberWatchdogProcessTest : public ::testing::Test {
   std::string dir_;
   CanBusConfig bus_;
   std::unique_ptr<ChildProcess> sim_;
-  std::unique_ptr<ChildProcess> gateway_;
+  std::unique_ptr<GatewayProcess> gateway_;
   std::shared_ptr<co::CanopenMaster> master_;
   int http_port_ = 0;
   std::string last_body_;
 };
 
 TEST_F(StoberWatchdogProcessTest, GatewayKilledMidMove_AxisQuickStopsAndStaysStopped) {
-  auto alive = [&] { return gateway_->Running() && sim_->Running(); };
+  auto dead = [&] { return !gateway_->Running() || !sim_->Running(); };
   ASSERT_TRUE(Eventually(
       [&] {
         const std::string s = Status().is_object() ? Status().value("state", "") : "";
-        return !s.empty() && s != "OFFLINE" && s != "DRIVE_STATE_UNSPECIFIED";
+        return (!s.empty() && s != "OFFLINE" && s != "DRIVE_STATE_UNSPECIFIED") || dead();
       },
-      kDeadline, alive))
+      kDeadline))
       << last_body_;
   auto [en_status, en] = Call("POST", "/v1/drives/s1:enable", "{}");
   ASSERT_EQ(en_status, 200) << last_body_;
@@ -178,10 +160,12 @@ TEST_F(StoberWatchdogProcessTest, GatewayKilledMidMove_AxisQuickStopsAndStaysSto
       [&] {
         const Json s = Status();
         before_kill = s.is_object() ? s.value("position_mm", 0.0) : 0.0;
-        return before_kill > 20;
+        return before_kill > 20 || dead();
       },
-      kDeadline, alive))
+      kDeadline))
       << "the axis did not move: " << last_body_;
+  ASSERT_GT(before_kill, 20) << "the axis did not move: " << last_body_;
+  ASSERT_TRUE(gateway_->Running() && sim_->Running()) << gateway_->Log() << sim_->Describe();
 
   const auto killed_at = Clock::now();
   gateway_->Kill();  // SIGKILL: no shutdown code runs, the last move stays commanded
