@@ -603,6 +603,11 @@ int RunStober(int argc, char** argv) {
   o.node_id = static_cast<uint8_t>(*node);
   if (revolution) o.axis.revolution = *revolution;
   if (auto s = ssim::AxisDevice::Validate(o.axis); !s.ok()) UsageError(std::string(s.message()));
+  // The drive's reaction to a dead master (6007h, decision 1483) in the motion log on stdout.
+  o.on_abort = [node = o.node_id](const ssim::Event& e) {
+    std::cout << absl::StrFormat("stober node %d: cycle %d: %s\n", node, e.cycle, e.text);
+    std::cout.flush();
+  };
   const sigset_t signals = BlockSignals();
   auto server = ssim::AxisServer::Start(o, SteadyClock::Instance(), ImpairedChannel(o.can));
   if (!server.ok()) {

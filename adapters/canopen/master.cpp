@@ -362,6 +362,17 @@ void CanopenMaster::Run() {
 
 Duration CanopenMaster::ServiceLocked(TimePoint now) {
   TimePoint next = now + kIdleWait;
+  if (own_node_ != 0) {
+    if (now >= next_own_heartbeat_) {
+      // CiA 301 §7.2.8.3.2.3: a producer sends its NMT state every period; a late thread sends
+      // once, not a burst (the simulated slaves do the same, decision 1129).
+      auto frame = EncodeErrorControl({own_node_, NmtState::kOperational, false});
+      if (frame.ok() && SendFrame(*frame).ok()) ++counters_.own_heartbeats_sent;
+      next_own_heartbeat_ += own_period_;
+      if (next_own_heartbeat_ <= now) next_own_heartbeat_ = now + own_period_;
+    }
+    next = std::min(next, next_own_heartbeat_);
+  }
   for (auto& [id, n] : nodes_) {
     next = ServiceSdoLocked(n, now, next);
     Heartbeat& hb = n.heartbeat;

@@ -166,6 +166,7 @@ struct MasterCounters {
   Duration sync_max_period_error{};   // the largest since StartSync
   uint64_t heartbeats = 0;
   uint64_t heartbeat_lost = 0;
+  uint64_t own_heartbeats_sent = 0;  // this master's own heartbeat (StartOwnHeartbeat)
   uint64_t emcy = 0;
   uint64_t bootups = 0;
   uint64_t bus_off_events = 0;
@@ -262,6 +263,16 @@ class CanopenMaster {
                                        uint8_t sub = 1);
   // The last NMT state the node reported (heartbeat or boot-up), if any.
   std::optional<NmtState> node_state(uint8_t node) const;
+  // This master's own heartbeat (decision 1483): 700h + own_node, one byte 05h OPERATIONAL,
+  // every `period` from the receive thread, so the nodes' 1016h consumers notice a dead master.
+  // The first call starts it; a later call with the same node keeps the running producer (the
+  // first period holds, like the pool's first options); another node ID is FailedPrecondition
+  // naming both.
+  absl::Status StartOwnHeartbeat(uint8_t own_node, Duration period);
+  // Writes the node's consumer heartbeat entry 1016h sub `sub` = (producer << 16) | time_ms and
+  // reads it back (FailedPrecondition on a mismatch, like 1017h).
+  absl::Status ConfigureHeartbeatConsumer(uint8_t node, uint8_t producer, uint16_t time_ms,
+                                          TimePoint deadline, uint8_t sub = 1);
 
   // --- Observers. When RemoveNodeObserver returns, the observer is not called any more (also
   // from inside a callback). Off the receive thread it waits for a delivery in progress: do not
@@ -419,7 +430,10 @@ class CanopenMaster {
   std::map<std::pair<uint8_t, uint16_t>, uint16_t> tpdo_cob_;     // configured; 0 = invalid
   std::map<uint16_t, std::pair<uint8_t, uint16_t>> tpdo_by_cob_;  // configured and valid
   std::vector<Notification> pending_;  // filled under mu_, delivered by Dispatch
-  MasterCounters counters_;            // except frames_out / send_errors
+  uint8_t own_node_ = 0;               // own heartbeat producer: 0 = off (decision 1483)
+  Duration own_period_{};
+  TimePoint next_own_heartbeat_{};
+  MasterCounters counters_;  // except frames_out / send_errors
 
   std::atomic<bool> tracing_{false};
   mutable std::mutex trace_mu_;                  // below; taken alone, never around a send

@@ -28,6 +28,8 @@ void CanopenMaster::HandleErrorControlLocked(const transport::CanFrame& frame, T
                                         .Add("error", ec.status().message()));
     return;
   }
+  // Our own heartbeat looped back by the bus is no node's (decision 1483).
+  if (own_node_ != 0 && ec->node == own_node_) return;
   Node& n = nodes_[ec->node];
   n.nmt = ec->state;
   Heartbeat& hb = n.heartbeat;
@@ -124,6 +126,51 @@ absl::Status CanopenMaster::SetHeartbeatConsumer(uint8_t node, Duration consumer
     }
   }
   WakeReceiver();  // the next expiry may be earlier than the thread's current wait
+  return absl::OkStatus();
+}
+
+absl::Status CanopenMaster::StartOwnHeartbeat(uint8_t own_node, Duration period) {
+  if (absl::Status s = ValidateNodeId(own_node, "master_node_id"); !s.ok()) return s;
+  if (period <= Duration::zero()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("canopen own heartbeat of node ", own_node, ": period must be > 0"));
+  }
+  {
+    std::lock_guard lock(mu_);
+    if (own_node_ == own_node) return absl::OkStatus();
+    if (own_node_ != 0) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "canopen master ", bus_name_, " already produces its heartbeat as node ", own_node_,
+          "; node ", own_node, " asked (one master node ID per bus, decision 1483)"));
+    }
+    own_node_ = own_node;
+    own_period_ = period;
+    next_own_heartbeat_ = clock_.Now();  // the first one at once: consumers start on it
+    log::Info("canopen_own_heartbeat", log::Fields()
+                                           .Add("bus", bus_name_)
+                                           .Add("node", static_cast<int>(own_node))
+                                           .Add("period_ms", Ms(period)));
+  }
+  WakeReceiver();
+  return absl::OkStatus();
+}
+
+absl::Status CanopenMaster::ConfigureHeartbeatConsumer(uint8_t node, uint8_t producer,
+                                                       uint16_t time_ms, TimePoint deadline,
+                                                       uint8_t sub) {
+  // CiA 301 §7.5.2.19: 1016h sub 1..n u32, bits 23..16 producer node ID, 15..0 time in ms.
+  const uint32_t value = static_cast<uint32_t>(producer) << 16 | time_ms;
+  if (absl::Status s = WriteU32(node, 0x1016, sub, value, deadline, SdoRetry::kIdempotent);
+      !s.ok()) {
+    return s;
+  }
+  absl::StatusOr<uint32_t> back = ReadU32(node, 0x1016, sub, deadline);
+  if (!back.ok()) return back.status();
+  if (*back != value) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "canopen node ", node, " 1016h:", sub, " consumer heartbeat: wrote 0x",
+        absl::Hex(value, absl::kZeroPad8), ", reads back 0x", absl::Hex(*back, absl::kZeroPad8)));
+  }
   return absl::OkStatus();
 }
 

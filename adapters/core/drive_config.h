@@ -96,6 +96,11 @@ struct CanOpenConfig {
   // RPDO transmission type (CiA 301 1400h sub 2): 255 event-driven (applied on reception),
   // 0..240 synchronous (applied at the next SYNC; the SYNC producer then runs; decision 1119).
   uint8_t rpdo_transmission_type = 255;
+  // The gateway's own CANopen node ID on this bus (decision 1483): it produces its heartbeat
+  // (700h + id) every `heartbeat`, and each drive consumes it in 1016h:01 with the consumer time
+  // `heartbeat_timeout`, reacting per 6007h (quick stop) when the gateway dies. 0: no master
+  // heartbeat and no drive-side watchdog (1016h:01 is cleared).
+  uint8_t master_node_id = 127;
 };
 
 struct TimeoutConfig {

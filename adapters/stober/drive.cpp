@@ -212,6 +212,39 @@ void StoberDrive::RunWorker() {
   }
 }
 
+// The drive-side watchdog (decision 1483): the master produces its own heartbeat, the node
+// consumes it (1016h:01) and reacts to its loss with 6007h = quick stop, so a killed gateway
+// does not leave a move running. Both written idempotently and read back.
+absl::Status StoberDrive::ConfigureMasterWatchdog(co::CanopenMaster& m,
+                                                  const std::function<TimePoint()>& deadline) {
+  const auto& c = config().canopen;
+  const std::string prefix = Prefix("configure");
+  auto step = [&](absl::Status s, const char* what) -> absl::Status {
+    if (s.ok()) return s;
+    return Annotate(s, absl::StrCat(prefix, what, ": "));
+  };
+  if (c.master_node_id == 0) {
+    // No master heartbeat: a consumer left by an earlier commissioning would stop the axis.
+    return step(m.ConfigureHeartbeatConsumer(node_, 0, 0, deadline()), "1016h:01 cleared");
+  }
+  DGW_RETURN_IF_ERROR(step(m.StartOwnHeartbeat(c.master_node_id, c.heartbeat), "master heartbeat"));
+  DGW_RETURN_IF_ERROR(step(
+      m.ConfigureHeartbeatConsumer(node_, c.master_node_id,
+                                   static_cast<uint16_t>(c.heartbeat_timeout.count()), deadline()),
+      "1016h:01 master heartbeat consumer"));
+  // CiA 402 6007h abort connection option code (INTEGER16): 3 = quick stop command.
+  DGW_RETURN_IF_ERROR(step(m.WriteU16(node_, kAbortConnectionOption, 0, kAbortQuickStop, deadline(),
+                                      co::SdoRetry::kIdempotent),
+                           "6007h abort connection option"));
+  auto back = m.ReadU16(node_, kAbortConnectionOption, 0, deadline());
+  if (!back.ok()) return step(back.status(), "6007h read back");
+  if (*back != kAbortQuickStop) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        prefix, "6007h abort connection option: wrote ", kAbortQuickStop, ", reads back ", *back));
+  }
+  return absl::OkStatus();
+}
+
 // CiA 301 start-up of one node (decision 1194): probe 6041h, pre-operational, heartbeat producer
 // and consumer, 1029h, the default PDO layout, the RPDO images and the status read back, start.
 absl::Status StoberDrive::Configure() {
@@ -242,6 +275,7 @@ absl::Status StoberDrive::Configure() {
   DGW_RETURN_IF_ERROR(
       step(m->ConfigureErrorBehaviour(node_, co::ErrorBehaviour::kPreOperational, deadline()),
            "1029h error behaviour"));
+  DGW_RETURN_IF_ERROR(ConfigureMasterWatchdog(*m, deadline));
   for (const PdoLayout& layout : DefaultPdoLayout()) {
     const co::PdoMapping mapping = layout.Mapping();
     DGW_RETURN_IF_ERROR(step(

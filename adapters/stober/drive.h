@@ -126,6 +126,8 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   // Worker: (re)configures the node and supervises deadlines.
   void RunWorker();
   absl::Status Configure();
+  absl::Status ConfigureMasterWatchdog(canopen::CanopenMaster& m,
+                                       const std::function<TimePoint()>& deadline);
   void GoOfflineLocked(const std::string& reason, bool node_reset);
 
   // RPDO images → frames (non-blocking).

@@ -71,6 +71,23 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateStoberDrive(const DriveConfig& conf
                absl::StrCat(co.heartbeat_timeout.count(), " ms must exceed canopen.heartbeat ",
                             co.heartbeat.count(), " ms"));
   }
+  // Decision 1483: the gateway's own heartbeat (700h + master_node_id) and the drive's
+  // (700h + node_id) must not share a COB-ID.
+  if (co.master_node_id > 127) {
+    return Bad(config, "canopen.master_node_id",
+               absl::StrCat(co.master_node_id, " is not a CANopen node ID (0 off, 1..127)"));
+  }
+  if (co.master_node_id == *config.node_id) {
+    return Bad(config, "canopen.master_node_id",
+               absl::StrCat(co.master_node_id, " is also this drive's node_id ", *config.node_id,
+                            "; the gateway's own node ID must differ from every drive's"));
+  }
+  if (co.master_node_id != 0 && co.heartbeat_timeout.count() > 65535) {
+    return Bad(config, "canopen.heartbeat_timeout",
+               absl::StrCat(co.heartbeat_timeout.count(),
+                            " ms exceeds 1016h's 65535 ms (the drive's consumer time of the "
+                            "gateway's heartbeat)"));
+  }
   // Positions travel as INTEGER32 in 0.001 u (decision 1172).
   const double limit = std::numeric_limits<int32_t>::max() * kUserUnitScale;
   for (const auto& [field, mm] : {std::pair<const char*, double>{"min_mm", config.axis.min_mm},

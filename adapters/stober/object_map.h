@@ -72,6 +72,16 @@ absl::StatusOr<double> Decode(const ObjectBinding& binding, std::span<const uint
 // ---- packed motion status (decision 1174) ----
 // A manufacturer object outside the 2000h..39FFh parameter range, UNSIGNED32, read-only,
 // mappable: the status flags of the motion core in one TPDO entry.
+// CiA 402 6007h abort connection option code (INTEGER16): the drive's reaction to a lost
+// connection such as a heartbeat consumer time-out (decision 1483).
+inline constexpr uint16_t kAbortConnectionOption = 0x6007;
+enum AbortConnectionOption : uint16_t {
+  kAbortNoAction = 0,
+  kAbortFault = 1,
+  kAbortDisableVoltage = 2,
+  kAbortQuickStop = 3,
+};
+
 inline constexpr uint16_t kStatusFlagsIndex = 0x4000;
 inline constexpr uint8_t kStatusFlagsSub = 0;
 namespace status_bit {

@@ -82,7 +82,7 @@ void ParseCanOpen(const Section& s, CanOpenConfig& out) {
   if (node) {
     const Section c(*node, s.Child("canopen"),
                     {"heartbeat_ms", "heartbeat_timeout_ms", "sync_period_ms", "sdo_timeout_ms",
-                     "sdo_retries", "rpdo_transmission_type"},
+                     "sdo_retries", "rpdo_transmission_type", "master_node_id"},
                     s.errors());
     if (node->IsNull() || node->IsMap()) {
       c.Millis("heartbeat_ms", kMaxHeartbeatMs, out.heartbeat);
@@ -94,6 +94,11 @@ void ParseCanOpen(const Section& s, CanOpenConfig& out) {
         out.sdo_retries = static_cast<int>(retries);
       }
       ParseRpdoTransmissionType(c, out);
+      // Decision 1483: the gateway's own node ID for its heartbeat; 0 = no drive watchdog.
+      int64_t master = out.master_node_id;
+      if (c.Int("master_node_id", 0, kMaxNodeId, master)) {
+        out.master_node_id = static_cast<uint8_t>(master);
+      }
     }
   }
   // CiA 301 §7.2.8.3.2: the consumer must wait longer than the producer's period, or every
@@ -166,6 +171,14 @@ void ParseCanOpenDrive(const Section& s, DriveConfig& drive) {
     s.errors().Add(s.Child("node_id"), "required for family stober (1..127)", YAML::Node());
   }
   ParseCanOpen(s, drive.canopen);
+  if (drive.node_id && *drive.node_id == drive.canopen.master_node_id) {
+    // One heartbeat COB-ID 700h + n per node ID: the drive's and the gateway's would collide.
+    s.errors().Add(absl::StrCat(s.Child("canopen"), ".master_node_id"),
+                   absl::StrCat(static_cast<int>(drive.canopen.master_node_id),
+                                " is also this drive's node_id; the gateway's own node ID on the "
+                                "bus must differ from every drive's (decision 1483)"),
+                   NodeOf(s.Get("canopen"), "master_node_id"));
+  }
   CheckWireRange(s, drive.axis);
 }
 
@@ -179,6 +192,7 @@ void CanOpenNodes::Add(size_t index, const Section& s, const DriveConfig& drive)
         absl::StrCat(*drive.node_id, " is also the node ID of drives[", it->second, "] on ", bus),
         *s.Get("node_id"));
   }
+  CheckMasterNode(index, s, drive, bus);
   const int64_t sync = Ms(drive.canopen.sync_period);
   if (auto [it, fresh] = sync_.emplace(bus, std::make_pair(index, sync)); !fresh) {
     if (it->second.second != sync) {
@@ -188,6 +202,38 @@ void CanOpenNodes::Add(size_t index, const Section& s, const DriveConfig& drive)
                                "; the bus's CANopen master has one SYNC producer (decision 1116)"),
                   NodeOf(s.Get("canopen"), "sync_period_ms"));
     }
+  }
+}
+
+// Decision 1483: the bus's one master has one own node ID, and no drive on the bus may use it.
+void CanOpenNodes::CheckMasterNode(size_t index, const Section& s, const DriveConfig& drive,
+                                   const std::string& bus) {
+  const uint8_t master = drive.canopen.master_node_id;
+  const YAML::Node at = NodeOf(s.Get("canopen"), "master_node_id");
+  const std::string key = absl::StrCat(s.Child("canopen"), ".master_node_id");
+  if (auto [it, fresh] = masters_.emplace(bus, std::make_pair(index, master)); !fresh) {
+    if (it->second.second != master) {
+      errors_.Add(key,
+                  absl::StrCat(static_cast<int>(master), " differs from drives[", it->second.first,
+                               "] (", static_cast<int>(it->second.second), ") on the same bus ",
+                               bus, "; the bus's CANopen master has one node ID"),
+                  at);
+    }
+  }
+  if (auto it = nodes_.find({bus, master});
+      master != 0 && it != nodes_.end() && it->second != index) {
+    errors_.Add(key,
+                absl::StrCat(static_cast<int>(master), " is the node_id of drives[", it->second,
+                             "] on ", bus, "; the gateway's own node ID must differ"),
+                at);
+  }
+  const auto& [first, first_master] = masters_.at(bus);
+  if (first != index && first_master != 0 && first_master == *drive.node_id) {
+    errors_.Add(s.Child("node_id"),
+                absl::StrCat(static_cast<int>(*drive.node_id),
+                             " is the gateway's own node ID (canopen.master_node_id of drives[",
+                             first, "]) on ", bus),
+                *s.Get("node_id"));
   }
 }
 

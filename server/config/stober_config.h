@@ -29,9 +29,13 @@ class CanOpenNodes {
   void Add(size_t index, const Section& s, const DriveConfig& drive);
 
  private:
+  void CheckMasterNode(size_t index, const Section& s, const DriveConfig& drive,
+                       const std::string& bus);
+
   Errors& errors_;
-  std::map<std::pair<std::string, uint8_t>, size_t> nodes_;  // (bus, node ID) -> drive index
-  std::map<std::string, std::pair<size_t, int64_t>> sync_;   // bus -> (first drive, period ms)
+  std::map<std::pair<std::string, uint8_t>, size_t> nodes_;    // (bus, node ID) -> drive index
+  std::map<std::string, std::pair<size_t, int64_t>> sync_;     // bus -> (first drive, period ms)
+  std::map<std::string, std::pair<size_t, uint8_t>> masters_;  // bus -> (first drive, master ID)
 };
 
 }  // namespace drivegw::config::internal

@@ -43,6 +43,15 @@ class DeviceModel {
     (void)from;
     (void)to;
   }
+  // A communication error the node detected (CiA 301 §7.2.8.3.2.3 / decision 1130): `emcy_code`
+  // 8130h heartbeat consumer time-out of node `producer`, 8140h bus-off recovered (producer 0).
+  // Called after the EMCY, before the 1029h NMT reaction. A CiA 402 drive applies its 6007h
+  // abort connection option here (decision 1483).
+  virtual void OnCommunicationError(SlaveNode& node, uint16_t emcy_code, uint8_t producer) {
+    (void)node;
+    (void)emcy_code;
+    (void)producer;
+  }
   // NMT reset node or an injected reboot: objects 2000h..9FFFh are back at their defaults; the
   // model resets its own state (motion, faults) to power-on.
   virtual void OnResetApplication(SlaveNode& node) { (void)node; }

@@ -241,7 +241,7 @@ void SlaveNode::RunTimers() {
     if (st.last && !st.timed_out && now_ - *st.last > Ms(c.time_ms)) {
       // §7.2.8.3.2.3: heartbeat event; a communication error for 1029h (decision 1130).
       st.timed_out = true;
-      CommunicationError(co::emcy_code::kLifeGuardHeartbeat);
+      CommunicationError(co::emcy_code::kLifeGuardHeartbeat, c.node);
     }
   }
   if (state_ == NmtState::kOperational) {
@@ -403,8 +403,9 @@ void SlaveNode::SendEmcy(uint16_t code, uint8_t error_register,
   if (Emit(*frame)) ++counters_.emcys_sent;
 }
 
-void SlaveNode::CommunicationError(uint16_t code) {
+void SlaveNode::CommunicationError(uint16_t code, uint8_t producer) {
   RaiseEmcy(code, co::error_register::kCommunication);
+  if (model_ != nullptr) model_->OnCommunicationError(*this, code, producer);
   switch (static_cast<ErrorBehaviour>(od_.GetInt(0x1029, 1).value_or(0))) {
     case ErrorBehaviour::kPreOperational:
       if (state_ == NmtState::kOperational) SetState(NmtState::kPreOperational);

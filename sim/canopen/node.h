@@ -104,7 +104,7 @@ class SlaveNode {
   void ClearErrors();
   // A communication error (heartbeat consumer timeout, bus-off recovered): EMCY `code` with
   // the communication bit, then the 1029h:01 behaviour.
-  void CommunicationError(uint16_t code);
+  void CommunicationError(uint16_t code, uint8_t producer = 0);
   // An application event for TPDO `number` (1..4): event-driven ones are sent (after the
   // inhibit time), acyclic synchronous (type 0) ones at the next SYNC.
   void RequestTpdo(uint16_t number);

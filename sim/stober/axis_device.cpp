@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "adapters/canopen/emcy.h"
 #include "adapters/canopen/sdo.h"
 
 namespace drivegw::sim::stober {
@@ -157,6 +158,21 @@ absl::Status AxisDevice::Configure(SlaveNode& node) {
   s = od.OnReadInt(so::kStatusFlagsIndex, so::kStatusFlagsSub,
                    [this]() -> absl::StatusOr<int64_t> { return StatusFlags(); });
   if (!s.ok()) return s;
+  // CiA 402 6007h abort connection option code, default 1 (fault) as the profile gives it;
+  // 0..3 accepted, the manufacturer-specific negative codes refused (decision 1483).
+  s = od.Add(canopen::Integer(so::kAbortConnectionOption, 0, "abort connection option code",
+                              DataType::kI16, canopen::Access::kRw, so::kAbortFault));
+  if (!s.ok()) return s;
+  s = od.OnWriteInt(so::kAbortConnectionOption, 0, [](int64_t v) -> absl::Status {
+    if (v < so::kAbortNoAction || v > so::kAbortQuickStop) {
+      return co::SdoAbortStatus(co::SdoAbortCode::kValueRange,
+                                absl::StrCat("6007h abort connection option ", v,
+                                             ": only 0..3 (no action, fault, disable voltage, "
+                                             "quick stop)"));
+    }
+    return absl::OkStatus();
+  });
+  if (!s.ok()) return s;
   // The power-on PDOs are the gateway's default layout, so a demo works without configuration
   // (decision 1176); the gateway re-configures them anyway after every boot-up.
   for (const so::PdoLayout& l : so::DefaultPdoLayout()) {
@@ -266,6 +282,19 @@ void AxisDevice::AfterCycle(SlaveNode& node) {
 void AxisDevice::OnResetApplication(SlaveNode& node) {
   (void)node;
   Restart();  // power-on state of the drive (CiA 301 reset application, decision 1180)
+}
+
+void AxisDevice::OnCommunicationError(SlaveNode& node, uint16_t emcy_code, uint8_t producer) {
+  // CiA 402 6007h: the drive's own reaction to a lost connection, here a heartbeat consumer
+  // time-out (1016h) or a recovered bus-off, on top of CiA 301's EMCY and 1029h (decision 1483).
+  const int64_t option =
+      node.dictionary().GetInt(so::kAbortConnectionOption, 0).value_or(so::kAbortFault);
+  const std::string reason =
+      emcy_code == co::emcy_code::kLifeGuardHeartbeat
+          ? absl::StrCat("heartbeat of node ", producer, " lost (1016h consumer time-out)")
+          : absl::StrCat("communication error EMCY ", absl::Hex(emcy_code, absl::kZeroPad4));
+  core_->AbortConnection(static_cast<int>(option), emcy_code, reason);
+  if (option != so::kAbortNoAction && on_abort_) on_abort_(core_->events().back());
 }
 
 void AxisDevice::InjectFollowingError(SlaveNode& node) {

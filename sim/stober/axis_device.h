@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 
@@ -55,6 +56,14 @@ class AxisDevice : public canopen::DeviceModel {
   // seen low at the next one, so low + high read in one burst still give one rising edge.
   void OnRpdoWritten(canopen::SlaveNode& node, uint16_t number) override;
   void OnResetApplication(canopen::SlaveNode& node) override;
+  // 6007h abort connection option on a heartbeat time-out or bus-off (decision 1483).
+  void OnCommunicationError(canopen::SlaveNode& node, uint16_t emcy_code,
+                            uint8_t producer) override;
+  // Called (on the server's thread) with the motion-log entry of each 6007h reaction, so
+  // `drivegw-sim stober` can print it.
+  void SetAbortListener(std::function<void(const Event&)> listener) {
+    on_abort_ = std::move(listener);
+  }
 
   MotionCore& core() { return *core_; }
   const MotionCore& core() const { return *core_; }
@@ -97,6 +106,7 @@ class AxisDevice : public canopen::DeviceModel {
   bool ignore_execute_ = false;
   bool drop_next_edge_ = false;
   uint64_t dropped_edges_ = 0;
+  std::function<void(const Event&)> on_abort_;
 };
 
 }  // namespace drivegw::sim::stober

@@ -59,7 +59,15 @@ void PowerStateMachine::Step(uint16_t control_word, bool motion_stopped) {
   fault_reset_edge_ =
       (control_word & cw::kFaultReset) != 0 && (previous_control_word_ & cw::kFaultReset) == 0;
   previous_control_word_ = control_word;
-  const Command command = Decode(control_word);
+  Transition(static_cast<int>(Decode(control_word)), motion_stopped);
+}
+
+void PowerStateMachine::LocalCommand(uint16_t control_word) {
+  Transition(static_cast<int>(Decode(control_word)), /*motion_stopped=*/false);
+}
+
+void PowerStateMachine::Transition(int code, bool motion_stopped) {
+  const auto command = static_cast<Command>(code);
   switch (state_) {
     case PowerState::kNotReadyToSwitchOn:
       state_ = PowerState::kSwitchOnDisabled;  // 1: self test done

@@ -79,6 +79,10 @@ class PowerStateMachine {
   void Step(uint16_t control_word, bool motion_stopped);
   // A fault from any state: Fault reaction active (transition 13), then Fault once stopped.
   void RaiseFault();
+  // A device control command the drive gives itself (6007h abort connection option, decision
+  // 1483): `control_word` (kQuickStopWord, kDisableVoltageWord) takes the transition it would
+  // take from the bus, now; the bus's next control word is evaluated from the new state.
+  void LocalCommand(uint16_t control_word);
 
   PowerState state() const { return state_; }
   // The motion core may run commands only in Operation enabled.
@@ -95,6 +99,8 @@ class PowerStateMachine {
   uint16_t StatusWord(const StatusWordInputs& inputs) const;
 
  private:
+  void Transition(int command, bool motion_stopped);
+
   PowerState state_;
   uint16_t previous_control_word_ = 0;
   bool fault_reset_edge_ = false;

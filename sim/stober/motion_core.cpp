@@ -623,6 +623,29 @@ void MotionCore::ForceReferenceSwitch(std::optional<bool> active) {
 
 void MotionCore::InjectFault() { power_.RaiseFault(); }
 
+void MotionCore::AbortConnection(int option, uint16_t emcy_code, const std::string& reason) {
+  const char* reaction = "no action";
+  switch (option) {
+    case 1:
+      reaction = "fault";
+      power_.RaiseFault();
+      break;
+    case 2:
+      reaction = "disable voltage";
+      power_.LocalCommand(cw::kDisableVoltageWord);
+      break;
+    case 3:
+      reaction = "quick stop";
+      power_.LocalCommand(cw::kQuickStopWord);
+      break;
+    default:
+      break;
+  }
+  events_.push_back({cycle_, 0, emcy_code,
+                     absl::StrCat(reason, ": 6007h = ", option, " ", reaction, " at position ",
+                                  actual_position_, ", velocity ", actual_velocity_)});
+}
+
 void MotionCore::SetReferenced(bool referenced) {
   Set("I86", referenced ? 1 : 0);
   Publish();

@@ -69,6 +69,8 @@ enum class Cause : int {
 };
 
 // Drive events the model raises (§5.7: event 78 "Position limit cyclic" causes 2 and 3).
+// number 0: no STOBER event but a CiA 402 reaction (6007h on a lost connection, decision 1483),
+// cause = the EMCY code that triggered it.
 struct Event {
   uint64_t cycle = 0;
   int number = 0;
@@ -142,6 +144,10 @@ class MotionCore {
   void DropCyclicSetValues(bool drop) { drop_cyclic_ = drop; }
   // A drive fault (CiA 402 Fault reaction active → Fault; reset with control word bit 7).
   void InjectFault();
+  // The drive's reaction to a lost connection (CiA 402 6007h, decision 1483): 1 fault, 2 disable
+  // voltage, 3 quick stop (ramp with the quick-stop deceleration, then Switch on disabled), 0 and
+  // others nothing. Recorded in events() as number 0, cause = `emcy_code`, with `reason`.
+  void AbortConnection(int option, uint16_t emcy_code, const std::string& reason);
   // Commissioning helpers of the fixtures (§10.1): referenced state and position at rest.
   void SetReferenced(bool referenced);
   void SetActualPosition(double position);

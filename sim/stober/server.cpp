@@ -17,6 +17,7 @@ absl::StatusOr<std::unique_ptr<AxisServer>> AxisServer::Start(
   if (absl::Status s = AxisDevice::Validate(options.axis); !s.ok()) return s;
   // Private constructor: make_unique cannot reach it.
   std::unique_ptr<AxisServer> server(new AxisServer(std::make_unique<AxisDevice>(options.axis)));
+  server->device_->SetAbortListener(options.on_abort);
   canopen::SlaveServerOptions so;
   so.can = options.can;
   so.node.node_id = options.node_id;
@@ -37,6 +38,12 @@ void AxisServer::Stop() {
 
 void AxisServer::WithAxis(const std::function<void(MotionCore&)>& fn) {
   slave_->WithNode([&](canopen::SlaveNode&) { fn(device_->core()); });
+}
+
+absl::StatusOr<int64_t> AxisServer::ReadObject(uint16_t index, uint8_t sub) {
+  absl::StatusOr<int64_t> value = absl::NotFoundError("no node");
+  slave_->WithNode([&](canopen::SlaveNode& node) { value = node.dictionary().GetInt(index, sub); });
+  return value;
 }
 
 void AxisServer::ForceLimitSwitch(bool positive, std::optional<bool> active) {

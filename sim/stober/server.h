@@ -26,6 +26,9 @@ struct AxisServerOptions {
   CanBusConfig can;           // the bus to open unless a channel is injected
   AxisDeviceOptions axis;     // motion core, A150, endless axis
   uint16_t heartbeat_ms = 0;  // 1017h power-on value (0: off until the master writes it)
+  // Each 6007h reaction to a lost connection, with its motion-log entry (decision 1483); runs
+  // on the server's I/O thread.
+  std::function<void(const Event&)> on_abort;
 };
 
 // CiA 402 device type (1000h): profile 402 (0192h), additional information 0002h servo drive.
@@ -51,6 +54,9 @@ class AxisServer {
   // Runs `fn` on the motion core under the server's lock, after advancing it to clock.Now()
   // (observation in tests, commissioning helpers such as SetActualPosition).
   void WithAxis(const std::function<void(MotionCore&)>& fn);
+  // An integer object of the node's dictionary as the node holds it now (tests: what a master
+  // configured, e.g. 1016h:01 and 6007h, decision 1483).
+  absl::StatusOr<int64_t> ReadObject(uint16_t index, uint8_t sub);
 
   // ---- fault injection (all at clock.Now()) ----
   void ForceLimitSwitch(bool positive, std::optional<bool> active);

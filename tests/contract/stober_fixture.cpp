@@ -92,6 +92,9 @@ class StoberFixture final : public FamilyFixture {
   }
   double PositionResolutionMm() const override { return 0.001; }
   bool HasStoredParameters() const override { return false; }  // decision 1201: no 1010h
+  // A silent node hears no gateway heartbeat either: its 1016h consumer times out and 6007h = 3
+  // quick-stops it into Switch on disabled (decision 1483); the gateway does not re-enable it.
+  bool EnabledAcrossLinkLoss() const override { return false; }
 
  private:
   std::unique_ptr<ss::AxisServer> server_;

@@ -75,15 +75,16 @@ TEST(StoberConfigTest, MinimalAxis_NodeIdBusAndCanOpenDefaults) {
   EXPECT_EQ(d.canopen.heartbeat_timeout, milliseconds(350));
   EXPECT_EQ(d.canopen.sync_period, milliseconds(2));
   EXPECT_EQ(d.canopen.sdo_timeout, milliseconds(1000));
-  EXPECT_EQ(d.canopen.sdo_retries, 3);  // decision 1481
+  EXPECT_EQ(d.canopen.sdo_retries, 3);               // decision 1481
   EXPECT_EQ(d.canopen.rpdo_transmission_type, 255);  // event-driven (decision 1119)
+  EXPECT_EQ(d.canopen.master_node_id, 127);          // the gateway's own node (decision 1483)
   EXPECT_EQ(d.axis.min_mm, -100);
 }
 
 TEST(StoberConfigTest, CanOpenKeys_Applied) {
   auto cfg = ParseConfig(With("node_id: 3", R"(node_id: 127
     canopen: {heartbeat_ms: 50, heartbeat_timeout_ms: 200, sync_period_ms: 4, sdo_timeout_ms: 300,
-              sdo_retries: 0})"));
+              sdo_retries: 0, master_node_id: 1})"));
   ASSERT_TRUE(cfg.ok()) << cfg.status();
   const DriveConfig& d = cfg->drives[0];
   EXPECT_EQ(d.node_id, std::optional<uint8_t>(127));
@@ -92,6 +93,8 @@ TEST(StoberConfigTest, CanOpenKeys_Applied) {
   EXPECT_EQ(d.canopen.sync_period, milliseconds(4));
   EXPECT_EQ(d.canopen.sdo_timeout, milliseconds(300));
   EXPECT_EQ(d.canopen.sdo_retries, 0);
+  // Node 127 is the default gateway node ID (decision 1483): free it by choosing another.
+  EXPECT_EQ(d.canopen.master_node_id, 1);
   // "canopen:" alone keeps every default.
   auto empty = ParseConfig(With("node_id: 3", "node_id: 1\n    canopen:"));
   ASSERT_TRUE(empty.ok()) << empty.status();
@@ -328,6 +331,36 @@ TEST(StoberConfigTest, SyncPeriodDiffersOnOneBus_Refused) {
                                     "    node_id: 4\n    canopen: {heartbeat_ms: 20, "
                                     "heartbeat_timeout_ms: 80, sdo_timeout_ms: 50}\n"))
                   .ok());
+}
+
+// Decision 1483: the gateway's own node ID (its heartbeat 700h + ID) is one per bus and no
+// drive's; the refusals name the other drive.
+TEST(StoberConfigTest, MasterNodeId_RangeAndCollisionsNamingBoth) {
+  const std::string bus = "    can: {udp: {group: 239.74.163.2, port: 43114}}\n";
+  EXPECT_THAT(Message(PlusDrive("s2", "stober",
+                                bus + "    node_id: 4\n    canopen: {master_node_id: 3}\n")),
+              HasSubstr("drives[1].canopen.master_node_id: 3 is the node_id of drives[0] on "
+                        "udp:239.74.163.2:43114; the gateway's own node ID must differ"));
+  EXPECT_THAT(Message(PlusDrive("s2", "stober",
+                                bus + "    node_id: 127\n    canopen: {master_node_id: 126}\n")),
+              HasSubstr("drives[1].node_id: 127 is the gateway's own node ID "
+                        "(canopen.master_node_id of drives[0]) on udp:239.74.163.2:43114"));
+  EXPECT_THAT(Message(PlusDrive("s2", "stober",
+                                bus + "    node_id: 4\n    canopen: {master_node_id: 100}\n")),
+              HasSubstr("drives[1].canopen.master_node_id: 100 differs from drives[0] (127) on the "
+                        "same bus udp:239.74.163.2:43114"));
+  const std::string other = "    can: {udp: {group: 239.74.163.2, port: 43115}}\n";
+  EXPECT_THAT(Message(PlusDrive("s2", "stober",
+                                other + "    node_id: 5\n    canopen: {master_node_id: 5}\n")),
+              HasSubstr("drives[1].canopen.master_node_id: 5 is also this drive's node_id"));
+  EXPECT_THAT(Message(PlusDrive("s2", "stober",
+                                other + "    node_id: 5\n    canopen: {master_node_id: 128}\n")),
+              HasSubstr("drives[1].canopen.master_node_id"));
+  // Another bus has a master of its own; 0 turns it off there.
+  EXPECT_TRUE(ParseConfig(PlusDrive("s2", "stober",
+                                    other + "    node_id: 127\n    canopen: {master_node_id: 0}\n"))
+                  .ok());
+  EXPECT_TRUE(ParseConfig(PlusDrive("s2", "stober", bus + "    node_id: 4\n")).ok());
 }
 
 // ---- one protocol per bus (decision 407) ----
