@@ -12,9 +12,6 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 #include <malloc.h>
-#if defined(__SANITIZE_ADDRESS__)
-#include <sanitizer/allocator_interface.h>
-#endif
 #include <sqlite3.h>
 
 #include <atomic>
@@ -31,6 +28,12 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#if defined(__SANITIZE_ADDRESS__)
+// Exported by the ASan runtime of both GCC and clang; declared here because GCC 12 does not
+// install <sanitizer/allocator_interface.h> (only clang's resource directory has it).
+extern "C" size_t __sanitizer_get_current_allocated_bytes();
+#endif
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_split.h"
