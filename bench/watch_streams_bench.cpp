@@ -20,9 +20,10 @@
 // threads ("nexting_thread") serve client and server alike, so with --client-process the client
 // runs in a child process (this binary, --client) and the CPU of each side is measured apart.
 // Run: build/bench/watch_streams_bench [streams = 1000] [seconds = 5] [rounds = 2] [channels = 4]
-//        [--ladder=100,200,...|--ladder=] [--client-process]
+//        [--ladder=100,200,...|--ladder=] [--client-process] [--async-client]
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
+#include <pthread.h>
 #include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -37,6 +38,7 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -106,50 +108,159 @@ struct Done {
   int count = 0;
 };
 
-class Watcher final : public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
+// What one stream received; filled by its client's completion threads until it is done.
+class Received {
  public:
-  Watcher(const grpc::ByteBuffer& request, size_t expected, Done& done)
+  Received(const grpc::ByteBuffer& request, size_t expected, Done& done)
       : request_(request), done_(done) {
     arrivals_.reserve(expected);
   }
-  void Start(grpc::GenericStub& stub) {
-    stub.PrepareBidiStreamingCall(&ctx_, kMethod, grpc::StubOptions(), this);
-    StartWrite(&request_);
-    StartRead(&in_);
-    StartCall();
-  }
-  void Cancel() { ctx_.TryCancel(); }
-
-  void OnWriteDone(bool ok) override {
-    if (ok) StartWritesDone();
-  }
-  void OnReadDone(bool ok) override {
-    if (!ok) return;
-    arrivals_.push_back(Clock::now());
-    bytes_ += in_.Length();
-    if (arrivals_.size() == 1) first_ = in_;
-    in_.Clear();
-    StartRead(&in_);
-  }
-  void OnDone(const grpc::Status& s) override {
-    status_ = s;
-    std::lock_guard lock(done_.mu);
-    ++done_.count;
-    done_.cv.notify_all();
-  }
+  virtual ~Received() = default;
+  virtual void Cancel() = 0;
 
   const std::vector<Clock::time_point>& arrivals() const { return arrivals_; }
   const grpc::ByteBuffer& first() const { return first_; }
   const grpc::Status& status() const { return status_; }
   size_t bytes() const { return bytes_; }
 
- private:
+ protected:
+  // Counts the message in `in_` (not parsed; the first one is kept) and clears it.
+  void Record() {
+    arrivals_.push_back(Clock::now());
+    bytes_ += in_.Length();
+    if (arrivals_.size() == 1) first_ = in_;
+    in_.Clear();
+  }
+  void Ended() {
+    std::lock_guard lock(done_.mu);
+    ++done_.count;
+    done_.cv.notify_all();
+  }
+
   grpc::ClientContext ctx_;
   grpc::ByteBuffer request_, in_, first_;
-  Done& done_;
-  std::vector<Clock::time_point> arrivals_;  // touched by gRPC threads only until OnDone
-  size_t bytes_ = 0;
   grpc::Status status_;
+
+ private:
+  Done& done_;
+  std::vector<Clock::time_point> arrivals_;
+  size_t bytes_ = 0;
+};
+
+// The callback client: gRPC's callback threads (process-wide, "nexting_thread") run it.
+class Watcher final : public Received,
+                      public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
+ public:
+  using Received::Received;
+  void Start(grpc::GenericStub& stub) {
+    stub.PrepareBidiStreamingCall(&ctx_, kMethod, grpc::StubOptions(), this);
+    StartWrite(&request_);
+    StartRead(&in_);
+    StartCall();
+  }
+  void Cancel() override { ctx_.TryCancel(); }
+
+  void OnWriteDone(bool ok) override {
+    if (ok) StartWritesDone();
+  }
+  void OnReadDone(bool ok) override {
+    if (!ok) return;
+    Record();
+    StartRead(&in_);
+  }
+  void OnDone(const grpc::Status& s) override {
+    status_ = s;
+    Ended();
+  }
+};
+
+// The completion-queue client (--async-client, decision 1374): the same calls on the same
+// channels, its completions on a queue of its own per channel, each drained by one thread.
+// gRPC's callback threads serve one process-wide queue whose (Debian: debug-built) completion
+// path scans every outstanding operation of the process under one lock; this keeps the client's
+// reads off the queue the server's writes complete on.
+class AsyncWatcher final : public Received {
+ public:
+  enum Kind { kStart, kWrite, kWritesDone, kRead, kFinish };
+  struct Tag {
+    AsyncWatcher* watcher;
+    Kind kind;
+  };
+  using Received::Received;
+
+  void Start(grpc::GenericStub& stub, grpc::CompletionQueue& cq) {
+    call_ = stub.PrepareCall(&ctx_, kMethod, &cq);
+    pending_ = 1;
+    call_->StartCall(&tags_[kStart]);
+  }
+  void Cancel() override { ctx_.TryCancel(); }
+
+  // On the queue's thread, one completion at a time per stream.
+  void Handle(Kind kind, bool ok) {
+    --pending_;
+    switch (kind) {
+      case kStart:
+        pending_ += 2;
+        call_->Write(request_, &tags_[kWrite]);
+        call_->Read(&in_, &tags_[kRead]);
+        break;
+      case kWrite:
+        if (ok) {
+          ++pending_;
+          call_->WritesDone(&tags_[kWritesDone]);
+        }
+        break;
+      case kWritesDone:
+        break;
+      case kRead:
+        ++pending_;
+        if (ok) {
+          Record();
+          call_->Read(&in_, &tags_[kRead]);
+        } else {
+          call_->Finish(&status_, &tags_[kFinish]);
+        }
+        break;
+      case kFinish:
+        finished_ = true;
+        break;
+    }
+    if (finished_ && pending_ == 0) Ended();
+  }
+
+ private:
+  std::unique_ptr<grpc::GenericClientAsyncReaderWriter> call_;
+  Tag tags_[5] = {
+      {this, kStart}, {this, kWrite}, {this, kWritesDone}, {this, kRead}, {this, kFinish}};
+  int pending_ = 0;  // operations started and not completed
+  bool finished_ = false;
+};
+
+// One completion queue and its thread per channel.
+class ClientQueues {
+ public:
+  explicit ClientQueues(size_t n) : queues_(n) {
+    for (auto& q : queues_) {
+      threads_.emplace_back([&q] {
+        ::pthread_setname_np(::pthread_self(), "p5_client_cq");
+        void* tag = nullptr;
+        bool ok = false;
+        while (q.Next(&tag, &ok)) {
+          auto* t = static_cast<AsyncWatcher::Tag*>(tag);
+          t->watcher->Handle(t->kind, ok);
+        }
+      });
+    }
+  }
+  ~ClientQueues() {
+    for (auto& q : queues_) q.Shutdown();
+    for (auto& t : threads_) t.join();
+  }
+  grpc::CompletionQueue& at(size_t i) { return queues_[i % queues_.size()]; }
+
+ private:
+  std::vector<grpc::CompletionQueue> queues_;
+  std::vector<std::thread> threads_;
 };
 
 struct RoundResult {
@@ -163,14 +274,21 @@ struct RoundResult {
   double bytes_per_msg = 0;
   double client_cpu_s = -1;  // --client-process: the client's process alone (cpu_s: the server's)
   drivegw::bench::ThreadCpu threads;  // CPU seconds per thread name within the window
+  Clock::time_point t0, t1;  // the (last) window; steady_clock is the same in the child process
 };
 
 nlohmann::json ToJson(const RoundResult& r) {
-  return {{"cpu_s", r.cpu_s},         {"messages", r.messages},
-          {"behind", r.behind},       {"failed", r.failed},
-          {"window_s", r.window_s},   {"worst_gap_ms", r.worst_gap_ms},
-          {"min_share", r.min_share}, {"bytes_per_msg", r.bytes_per_msg},
-          {"threads", r.threads}};
+  return {{"cpu_s", r.cpu_s},
+          {"messages", r.messages},
+          {"behind", r.behind},
+          {"failed", r.failed},
+          {"window_s", r.window_s},
+          {"worst_gap_ms", r.worst_gap_ms},
+          {"min_share", r.min_share},
+          {"bytes_per_msg", r.bytes_per_msg},
+          {"threads", r.threads},
+          {"t0_ns", r.t0.time_since_epoch().count()},
+          {"t1_ns", r.t1.time_since_epoch().count()}};
 }
 
 RoundResult FromJson(const nlohmann::json& j) {
@@ -184,6 +302,8 @@ RoundResult FromJson(const nlohmann::json& j) {
   r.min_share = j.at("min_share").get<double>();
   r.bytes_per_msg = j.at("bytes_per_msg").get<double>();
   r.threads = j.at("threads").get<drivegw::bench::ThreadCpu>();
+  r.t0 = Clock::time_point(Clock::duration(j.at("t0_ns").get<int64_t>()));
+  r.t1 = Clock::time_point(Clock::duration(j.at("t1_ns").get<int64_t>()));
   return r;
 }
 
@@ -210,6 +330,8 @@ struct WindowCpu {
   }
 };
 
+bool g_async_client = false;  // --async-client
+
 RoundResult RunStreams(uint16_t port, int streams, int channels, double seconds, bool check_status,
                        bool mark_window) {
   drivegw::v1::WatchDrivesRequest req;
@@ -230,10 +352,20 @@ RoundResult RunStreams(uint16_t port, int streams, int channels, double seconds,
   const auto warmup = 1s;
   const size_t expected = static_cast<size_t>(kRateHz * (seconds + 3) * 1.2);
   Done done;
-  std::vector<std::unique_ptr<Watcher>> watchers;
+  std::optional<ClientQueues> queues;
+  if (g_async_client) queues.emplace(static_cast<size_t>(channels));
+  std::vector<std::unique_ptr<Received>> watchers;
   for (int i = 0; i < streams; ++i) {
-    watchers.push_back(std::make_unique<Watcher>(request, expected, done));
-    watchers.back()->Start(*stubs[static_cast<size_t>(i % channels)]);
+    auto& stub = *stubs[static_cast<size_t>(i % channels)];
+    if (g_async_client) {
+      auto w = std::make_unique<AsyncWatcher>(request, expected, done);
+      w->Start(stub, queues->at(static_cast<size_t>(i)));
+      watchers.push_back(std::move(w));
+    } else {
+      auto w = std::make_unique<Watcher>(request, expected, done);
+      w->Start(stub);
+      watchers.push_back(std::move(w));
+    }
   }
   const auto t0 = Clock::now() + warmup;
   const auto t1 =
@@ -256,6 +388,8 @@ RoundResult RunStreams(uint16_t port, int streams, int channels, double seconds,
   r.window_s = seconds;
   r.cpu_s = cpu.cpu1 - cpu.cpu0;
   r.threads = drivegw::bench::Difference(cpu.threads1, cpu.threads0);
+  r.t0 = t0;
+  r.t1 = t1;
   const double want = kRateHz * seconds;
   size_t bytes_total = 0, msgs_total = 0;
   for (auto& w : watchers) {
@@ -361,7 +495,7 @@ RoundResult RunStreamsInChild(uint16_t port, int streams, int channels, double s
   std::vector<std::string> args = {"/proc/self/exe",         "--client",
                                    std::to_string(port),     std::to_string(streams),
                                    std::to_string(channels), std::to_string(seconds),
-                                   check_status ? "1" : "0"};
+                                   check_status ? "1" : "0", g_async_client ? "async" : "callback"};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -392,6 +526,66 @@ RoundResult RunStreamsInChild(uint16_t port, int streams, int channels, double s
   return r;
 }
 
+// When x1 published its snapshots (decision 1373): WatchDrives sends changed snapshots only, so a
+// 10 ms tick that finds no new snapshot of x1 sends nothing, and every stream misses that message
+// together. Waiting on the drive's own snapshot signal costs one wake-up per snapshot (200/s).
+class SnapshotLog {
+ public:
+  explicit SnapshotLog(const drivegw::Drive& drive) : drive_(drive) {
+    times_.reserve(1 << 20);
+    thread_ = std::thread([this] { Run(); });
+  }
+  ~SnapshotLog() {
+    stop_ = true;
+    thread_.join();
+  }
+  struct Window {
+    double per_s = 0;      // snapshots published per second
+    long empty_slots = 0;  // 10 ms slots (from t0) in which x1 published nothing
+    long slots = 0;
+    double max_gap_ms = 0;
+  };
+  Window In(Clock::time_point t0, Clock::time_point t1) const {
+    std::lock_guard lock(mu_);
+    Window w;
+    const auto slot = std::chrono::duration_cast<Clock::duration>(1s / kRateHz);
+    w.slots = static_cast<long>((t1 - t0) / slot);
+    std::vector<bool> seen(static_cast<size_t>(w.slots), false);
+    long n = 0;
+    auto prev = t0;
+    for (const auto& t : times_) {
+      if (t < t0 || t >= t1) continue;
+      ++n;
+      w.max_gap_ms =
+          std::max(w.max_gap_ms, std::chrono::duration<double, std::milli>(t - prev).count());
+      prev = t;
+      const auto k = static_cast<size_t>((t - t0) / slot);
+      if (k < seen.size()) seen[k] = true;
+    }
+    w.per_s = static_cast<double>(n) / std::chrono::duration<double>(t1 - t0).count();
+    w.empty_slots = static_cast<long>(std::count(seen.begin(), seen.end(), false));
+    return w;
+  }
+
+ private:
+  void Run() {
+    uint64_t seq = drive_.GetStatus().sequence;
+    while (!stop_) {
+      const auto s = drive_.WaitForStatus(seq, Clock::now() + 50ms);
+      if (s.sequence == seq) continue;
+      seq = s.sequence;
+      std::lock_guard lock(mu_);
+      times_.push_back(Clock::now());
+    }
+  }
+
+  const drivegw::Drive& drive_;
+  mutable std::mutex mu_;
+  std::vector<Clock::time_point> times_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
 void Accumulate(RoundResult& sum, const RoundResult& r) {
   sum.messages += r.messages;
   sum.cpu_s += r.cpu_s;
@@ -407,7 +601,8 @@ void Accumulate(RoundResult& sum, const RoundResult& r) {
 
 // The client of --client-process: one round against `port`, its result as a JSON line on stdout.
 int ClientMain(int argc, char** argv) {
-  if (argc < 7) Die("--client port streams channels seconds check");
+  if (argc < 8) Die("--client port streams channels seconds check callback|async");
+  g_async_client = std::string(argv[7]) == "async";
   const RoundResult r =
       RunStreams(static_cast<uint16_t>(std::atoi(argv[2])), std::atoi(argv[3]), std::atoi(argv[4]),
                  std::atof(argv[5]), std::string(argv[6]) == "1", true);
@@ -493,6 +688,8 @@ int main(int argc, char** argv) {
       ladder_spec = a.substr(9);
     } else if (a == "--client-process") {
       client_process = true;
+    } else if (a == "--async-client") {
+      g_async_client = true;
     } else {
       pos.push_back(a);
     }
@@ -516,9 +713,10 @@ int main(int argc, char** argv) {
                           : RunStreams(port, n, channels, seconds, check, false);
   };
 
-  std::printf("P5 WatchDrives: %d streams x %.0f Hz on %d channels, %d x %.1f s windows%s\n",
+  std::printf("P5 WatchDrives: %d streams x %.0f Hz on %d channels, %d x %.1f s windows%s%s\n",
               streams, kRateHz, channels, rounds, seconds,
-              client_process ? "; client in a child process" : "; client in this process");
+              client_process ? "; client in a child process" : "; client in this process",
+              g_async_client ? " (completion-queue client)" : " (callback client)");
   std::printf("%-40s %7s %11s %8s %8s %10s %9s %7s %9s %6s\n", "measurement", "streams", "msgs/s",
               "of ideal", "behind", "worst gap", "min share", "B/msg", "CPU us/m", "cores");
   RoundResult base, gate;
@@ -527,14 +725,34 @@ int main(int argc, char** argv) {
     RoundResult base, gate;
   };
   std::vector<Step> steps;
+  long x1_empty_slots = 0, x1_slots = 0;  // gateway rounds at `streams`
   const double load_before = drivegw::bench::LoadAverage();
   {
     Mover mover(gw->core());
+    const drivegw::Drive* x1 = nullptr;
+    for (const auto& d : gw->core().drives()) {
+      if (d->config().name == "x1") x1 = d.get();
+    }
+    if (x1 == nullptr) Die("no drive x1 in the demo configuration");
+    SnapshotLog snapshots(*x1);
+    auto print_snapshots = [&](const RoundResult& r) {
+      const SnapshotLog::Window w = snapshots.In(r.t0, r.t1);
+      std::printf(
+          "  x1 snapshots %.0f/s; 10 ms slots without one %ld of %ld (%.1f %%); longest gap "
+          "%.1f ms\n",
+          w.per_s, w.empty_slots, w.slots,
+          w.slots > 0 ? 100.0 * static_cast<double>(w.empty_slots) / w.slots : 0, w.max_gap_ms);
+      std::fflush(stdout);
+      return w;
+    };
     for (int r = 0; r < rounds; ++r) {
       const RoundResult rb = run(static_cast<uint16_t>(bare_port), streams, false);
       PrintRow("baseline: empty payload, same serving", streams, rb);
       const RoundResult rg = run(gw->grpc_port(), streams, true);
       PrintRow("gateway: WatchDrives x1 (moving)", streams, rg);
+      const SnapshotLog::Window w = print_snapshots(rg);
+      x1_empty_slots += w.empty_slots;
+      x1_slots += w.slots;
       Accumulate(base, rb);
       Accumulate(gate, rg);
     }
@@ -542,6 +760,7 @@ int main(int argc, char** argv) {
       Step st{n, run(static_cast<uint16_t>(bare_port), n, false), run(gw->grpc_port(), n, true)};
       PrintRow("ladder: baseline", n, st.base);
       PrintRow("ladder: gateway", n, st.gate);
+      print_snapshots(st.gate);
       steps.push_back(std::move(st));
     }
     if (mover.moves() < 2) Die("x1 did not move");
@@ -578,25 +797,28 @@ int main(int argc, char** argv) {
       ratio, gate.behind, failed, max_gate, max_base, load_before, load_after);
   // Process CPU per delivered message (gateway or baseline server, client, x1's drive and sim):
   // with the per-message cost and the CPU the machine gives this process, what rate can be had.
-  nlohmann::json detail = {{"gateway_msgs_per_s", gate_rate},
-                           {"baseline_msgs_per_s", base_rate},
-                           {"ideal_msgs_per_s", ideal},
-                           {"streams", streams},
-                           {"channels", channels},
-                           {"window_s", seconds},
-                           {"rounds", rounds},
-                           {"client_process", client_process},
-                           {"gateway_worst_gap_ms", gate.worst_gap_ms},
-                           {"gateway_min_share", gate.min_share},
-                           {"baseline_behind", base.behind},
-                           {"baseline_worst_gap_ms", base.worst_gap_ms},
-                           {"gateway_bytes_per_msg", gate.bytes_per_msg},
-                           {"gateway_cpu_us_per_msg", SideJson(gate)["cpu_us_per_msg"]},
-                           {"baseline_cpu_us_per_msg", SideJson(base)["cpu_us_per_msg"]},
-                           {"gateway_cores_used", Cores(gate.cpu_s, gate.window_s)},
-                           {"baseline_cores_used", Cores(base.cpu_s, base.window_s)},
-                           {"gateway_threads_cpu_s", gate.threads},
-                           {"load_avg", load_after}};
+  nlohmann::json detail = {
+      {"gateway_msgs_per_s", gate_rate},
+      {"baseline_msgs_per_s", base_rate},
+      {"ideal_msgs_per_s", ideal},
+      {"streams", streams},
+      {"channels", channels},
+      {"window_s", seconds},
+      {"rounds", rounds},
+      {"client_process", client_process},
+      {"gateway_worst_gap_ms", gate.worst_gap_ms},
+      {"gateway_min_share", gate.min_share},
+      {"baseline_behind", base.behind},
+      {"baseline_worst_gap_ms", base.worst_gap_ms},
+      {"gateway_bytes_per_msg", gate.bytes_per_msg},
+      {"gateway_cpu_us_per_msg", SideJson(gate)["cpu_us_per_msg"]},
+      {"baseline_cpu_us_per_msg", SideJson(base)["cpu_us_per_msg"]},
+      {"gateway_cores_used", Cores(gate.cpu_s, gate.window_s)},
+      {"baseline_cores_used", Cores(base.cpu_s, base.window_s)},
+      {"gateway_threads_cpu_s", gate.threads},
+      {"x1_empty_slot_pct",
+       x1_slots > 0 ? 100.0 * static_cast<double>(x1_empty_slots) / x1_slots : 0},
+      {"load_avg", load_after}};
   if (client_process) {
     detail["gateway_client_cpu_us_per_msg"] = CpuUs(gate.client_cpu_s, gate.messages);
     detail["gateway_server_cpu_us_per_msg"] = CpuUs(gate.cpu_s, gate.messages);
