@@ -2,9 +2,10 @@
 // against the same N streams from a bare callback server-streaming service that sends an empty
 // payload at the same rate (the same serving mechanism: WatchServing's shared ticker, reactor and
 // raw byte writes, decision 1341; a grpc::Server of its own in this process). One client for both:
-// C channels (own connections), one generic callback reactor per stream that counts messages and
-// records their arrival times without parsing them (the first one of each gateway stream is parsed
-// to check it is x1's status).
+// C channels (own connections), one generic bidi call per stream that counts messages and records
+// their arrival times without parsing them (the first one of each gateway stream is parsed to check
+// it is x1's status); its completions on one completion queue and thread per channel (decision
+// 1374; --callback-client: one callback reactor per stream on gRPC's shared callback threads).
 //
 // WatchDrives sends a drive's snapshot only when it changed, at most max_rate_hz times a second,
 // latest snapshot wins (core WatchDrives; decision 504 item 5). x1 is kept moving for the whole run
@@ -16,11 +17,12 @@
 // Capacity (decision 1371): after the rounds at `streams`, one round per side at each step of a
 // ladder below it (default 100, 200, 300, 400, 500, 600, 800): the largest stream count at which
 // no stream falls behind, per side (max_streams_no_behind, _baseline).
-// CPU split (decision 1372): per thread name for the window (/proc/self/task); gRPC's callback
-// threads ("nexting_thread") serve client and server alike, so with --client-process the client
-// runs in a child process (this binary, --client) and the CPU of each side is measured apart.
+// CPU split (decision 1372): per thread name for the window (/proc/self/task): the servers'
+// callback threads ("nexting_thread"; the callback client's too), the watch ticker ("watch_tick"),
+// the client's queues ("p5_client_cq"); with --client-process the client runs in a child process
+// (this binary, --client) and the CPU of each side is measured apart.
 // Run: build/bench/watch_streams_bench [streams = 1000] [seconds = 5] [rounds = 2] [channels = 4]
-//        [--ladder=100,200,...|--ladder=] [--client-process] [--async-client]
+//        [--ladder=100,200,...|--ladder=] [--client-process] [--callback-client]
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 #include <pthread.h>
@@ -147,7 +149,8 @@ class Received {
   size_t bytes_ = 0;
 };
 
-// The callback client: gRPC's callback threads (process-wide, "nexting_thread") run it.
+// The callback client (--callback-client; the client up to decision 1374): gRPC's callback threads
+// (process-wide, "nexting_thread", shared with the servers in this process) run it.
 class Watcher final : public Received,
                       public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
  public:
@@ -174,7 +177,7 @@ class Watcher final : public Received,
   }
 };
 
-// The completion-queue client (--async-client, decision 1374): the same calls on the same
+// The completion-queue client (the default since decision 1374): the same calls on the same
 // channels, its completions on a queue of its own per channel, each drained by one thread.
 // gRPC's callback threads serve one process-wide queue whose (Debian: debug-built) completion
 // path scans every outstanding operation of the process under one lock; this keeps the client's
@@ -330,7 +333,7 @@ struct WindowCpu {
   }
 };
 
-bool g_async_client = false;  // --async-client
+bool g_async_client = true;  // --callback-client: false (decision 1374)
 
 RoundResult RunStreams(uint16_t port, int streams, int channels, double seconds, bool check_status,
                        bool mark_window) {
@@ -688,8 +691,8 @@ int main(int argc, char** argv) {
       ladder_spec = a.substr(9);
     } else if (a == "--client-process") {
       client_process = true;
-    } else if (a == "--async-client") {
-      g_async_client = true;
+    } else if (a == "--callback-client") {
+      g_async_client = false;
     } else {
       pos.push_back(a);
     }
