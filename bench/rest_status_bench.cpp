@@ -22,6 +22,7 @@
 #include <boost/beast/core/flat_buffer.hpp>
 #include <boost/beast/http.hpp>
 #include <chrono>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -34,6 +35,7 @@
 
 #include "bench/demo_gateway.h"
 #include "bench/report.h"
+#include "google/protobuf/arena.h"
 #include "google/protobuf/util/json_util.h"
 #include "server/core/drive_service.h"
 #include "server/gateway.h"
@@ -250,6 +252,9 @@ double ThreadCpuSeconds() {
 // comparison, protobuf's MessageToJsonString with the same options that PrintJson replaces.
 struct CoreCosts {
   double get_drive_us = 0;
+  // The form the direct route calls (decision 1363): written in place into a message on an arena
+  // whose first block is on the stack, as Router::HandleDirect does.
+  double get_drive_arena_us = 0;
   double print_json_us = 0;
   double message_to_json_us = 0;
   // JsonCache::Print of the same unchanged Drive (a hit: serialise, hash, compare, copy;
@@ -272,6 +277,18 @@ CoreCosts MeasureCore(drivegw::server::DriveServiceCore& core, int n) {
   double t0 = ThreadCpuSeconds();
   for (int i = 0; i < n; ++i) bytes += core.GetDrive(req, cc)->ByteSizeLong();
   c.get_drive_us = 1e6 * (ThreadCpuSeconds() - t0) / n;
+  t0 = ThreadCpuSeconds();
+  for (int i = 0; i < n; ++i) {
+    alignas(std::max_align_t) char block[4096];
+    google::protobuf::ArenaOptions ao;
+    ao.initial_block = block;
+    ao.initial_block_size = sizeof(block);
+    google::protobuf::Arena arena(ao);
+    auto* out = google::protobuf::Arena::CreateMessage<drivegw::v1::Drive>(&arena);
+    if (!core.GetDrive(req, cc, out).ok()) Die("core GetDrive in place failed");
+    bytes += out->ByteSizeLong();
+  }
+  c.get_drive_arena_us = 1e6 * (ThreadCpuSeconds() - t0) / n;
   t0 = ThreadCpuSeconds();
   for (int i = 0; i < n; ++i) bytes += drivegw::rest::PrintJson(*d)->size();
   c.print_json_us = 1e6 * (ThreadCpuSeconds() - t0) / n;
@@ -361,6 +378,8 @@ int main(int argc, char** argv) {
               f.rps, f.p50, f.p99, f.n, f.cpu_us);
   std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  core GetDrive only (one thread)", "", "", "", "",
               core_costs.get_drive_us);
+  std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  core GetDrive in place, arena (one thread)", "",
+              "", "", "", core_costs.get_drive_arena_us);
   std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  PrintJson of that Drive (one thread)", "", "",
               "", "", core_costs.print_json_us);
   std::printf("%-44s %10s %9s %9s %9s %9.1f\n", "  MessageToJsonString of it, replaced", "", "", "",
@@ -398,6 +417,7 @@ int main(int argc, char** argv) {
         {"http_layer_only_cpu_us_per_req", f.cpu_us},
         {"core_get_drive_and_json_cpu_us", core_costs.get_drive_us + core_costs.print_json_us},
         {"core_get_drive_cpu_us", core_costs.get_drive_us},
+        {"core_get_drive_arena_cpu_us", core_costs.get_drive_arena_us},
         {"print_json_cpu_us", core_costs.print_json_us},
         {"message_to_json_cpu_us", core_costs.message_to_json_us},
         {"json_cache_hit_cpu_us", core_costs.cache_hit_us},

@@ -2,13 +2,23 @@
 #include "server/core/convert.h"
 
 #include "absl/strings/str_cat.h"
-#include "google/protobuf/util/time_util.h"
 
 namespace drivegw::server {
 namespace {
-google::protobuf::Timestamp ToTimestamp(WallTime t) {
-  return google::protobuf::util::TimeUtil::NanosecondsToTimestamp(
-      std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count());
+// In place (no temporary message, so an arena-allocated parent does not copy it): the same
+// normalisation as TimeUtil::NanosecondsToTimestamp (nanos in [0, 1e9), seconds floored).
+void SetTimestamp(WallTime t, google::protobuf::Timestamp* ts) {
+  constexpr int64_t kNanosPerSecond = 1'000'000'000;
+  const int64_t ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
+  int64_t seconds = ns / kNanosPerSecond;
+  int64_t nanos = ns % kNanosPerSecond;
+  if (nanos < 0) {
+    nanos += kNanosPerSecond;
+    seconds -= 1;
+  }
+  ts->set_seconds(seconds);
+  ts->set_nanos(static_cast<int32_t>(nanos));
 }
 }  // namespace
 
@@ -55,19 +65,30 @@ v1::CommandState ToProto(CommandState s) {
 
 v1::CommandHandle ToProto(const std::string& drive, const CommandInfo& c) {
   v1::CommandHandle h;
-  h.set_name(CommandResourceName(drive, c.id));
-  h.set_kind(c.kind);
-  h.set_state(ToProto(c.state));
-  h.set_message(c.message);
-  *h.mutable_create_time() = ToTimestamp(c.created);
-  if (c.ended) *h.mutable_end_time() = ToTimestamp(*c.ended);
-  if (c.progress) h.mutable_progress()->set_value(*c.progress);
+  FillCommand(drive, c, &h);
   return h;
+}
+
+void FillCommand(const std::string& drive, const CommandInfo& c, v1::CommandHandle* h) {
+  h->set_name(CommandResourceName(drive, c.id));
+  h->set_kind(c.kind);
+  h->set_state(ToProto(c.state));
+  h->set_message(c.message);
+  SetTimestamp(c.created, h->mutable_create_time());
+  if (c.ended) SetTimestamp(*c.ended, h->mutable_end_time());
+  if (c.progress) h->mutable_progress()->set_value(*c.progress);
 }
 
 v1::DriveStatus ToProto(const std::string& drive, const DriveStatus& s) {
   v1::DriveStatus p;
-  p.set_name(DriveResourceName(drive));
+  FillStatus(drive, DriveResourceName(drive), s, &p);
+  return p;
+}
+
+void FillStatus(const std::string& drive, const std::string& resource_name, const DriveStatus& s,
+                v1::DriveStatus* out) {
+  v1::DriveStatus& p = *out;
+  p.set_name(resource_name);
   p.set_state(ToProto(s.state));
   auto* n = p.mutable_native_state();
   n->set_main_state(s.native.main_state);
@@ -87,11 +108,10 @@ v1::DriveStatus ToProto(const std::string& drive, const DriveStatus& s) {
     p.mutable_fault()->set_text(s.fault.text);
     p.mutable_fault()->set_fatal(s.fault.fatal);
   }
-  if (s.last_command) *p.mutable_last_command() = ToProto(drive, *s.last_command);
-  *p.mutable_time() = ToTimestamp(s.time);
+  if (s.last_command) FillCommand(drive, *s.last_command, p.mutable_last_command());
+  SetTimestamp(s.time, p.mutable_time());
   p.set_sequence(s.sequence);
-  if (s.health) *p.mutable_health() = ToProto(*s.health);
-  return p;
+  if (s.health) FillHealth(*s.health, p.mutable_health());
 }
 
 v1::HealthState ToProto(HealthState s) {
@@ -108,36 +128,54 @@ v1::HealthState ToProto(HealthState s) {
 
 v1::DriveHealth ToProto(const HealthInfo& h) {
   v1::DriveHealth p;
-  p.set_state(ToProto(h.state));
-  *p.mutable_since() = ToTimestamp(h.since);
-  p.set_consecutive_failures(h.consecutive_failures);
-  p.set_reason(h.reason);
+  FillHealth(h, &p);
   return p;
+}
+
+void FillHealth(const HealthInfo& h, v1::DriveHealth* p) {
+  p->set_state(ToProto(h.state));
+  SetTimestamp(h.since, p->mutable_since());
+  p->set_consecutive_failures(h.consecutive_failures);
+  p->set_reason(h.reason);
 }
 
 v1::LinkHealth ToProto(const LinkHealth& h) {
   v1::LinkHealth p;
-  p.set_requests(h.requests);
-  p.set_replies(h.replies);
-  p.set_missed(h.missed);
-  if (h.last_round_trip_ms) p.mutable_last_round_trip_ms()->set_value(*h.last_round_trip_ms);
+  FillLink(h, &p);
   return p;
 }
 
+void FillLink(const LinkHealth& h, v1::LinkHealth* p) {
+  p->set_requests(h.requests);
+  p->set_replies(h.replies);
+  p->set_missed(h.missed);
+  if (h.last_round_trip_ms) p->mutable_last_round_trip_ms()->set_value(*h.last_round_trip_ms);
+}
+
 v1::DriveStatus StatusToProto(const Drive& d, const DriveStatus& s) {
-  v1::DriveStatus p = ToProto(d.config().name, s);
-  *p.mutable_link() = ToProto(d.link_health());
+  v1::DriveStatus p;
+  FillStatus(d, DriveResourceName(d.config().name), s, &p);
   return p;
+}
+
+void FillStatus(const Drive& d, const std::string& resource_name, const DriveStatus& s,
+                v1::DriveStatus* out) {
+  FillStatus(d.config().name, resource_name, s, out);
+  FillLink(d.link_health(), out->mutable_link());
 }
 
 v1::Axis ToProto(const AxisConfig& a) {
   v1::Axis p;
-  p.set_kind(a.kind == AxisKind::kRotary ? v1::ROTARY : v1::LINEAR);
-  p.set_min_mm(a.min_mm);
-  p.set_max_mm(a.max_mm);
-  p.set_max_velocity_mm_s(a.max_velocity_mm_s);
-  p.set_max_acceleration_mm_s2(a.max_acceleration_mm_s2);
+  FillAxis(a, &p);
   return p;
+}
+
+void FillAxis(const AxisConfig& a, v1::Axis* p) {
+  p->set_kind(a.kind == AxisKind::kRotary ? v1::ROTARY : v1::LINEAR);
+  p->set_min_mm(a.min_mm);
+  p->set_max_mm(a.max_mm);
+  p->set_max_velocity_mm_s(a.max_velocity_mm_s);
+  p->set_max_acceleration_mm_s2(a.max_acceleration_mm_s2);
 }
 
 }  // namespace drivegw::server

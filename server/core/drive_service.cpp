@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "adapters/core/status.h"
 #include "server/core/audit.h"
 #include "server/core/convert.h"
 #include "server/core/cyclic_validation.h"
@@ -51,18 +52,30 @@ DriveServiceCore::DriveServiceCore(std::vector<std::shared_ptr<Drive>> drives,
       audit_(audit),
       leases_(leases),
       snapshots_(std::make_unique<WatchSnapshots>()) {
-  for (const auto& d : drives_) by_name_[d->config().name] = d.get();
+  configured_.reserve(drives_.size());
+  for (const auto& d : drives_) {
+    configured_.push_back({d.get(), DriveResourceName(d->config().name)});
+  }
+  // After the vector is complete: the map points into it.
+  for (const Configured& c : configured_) by_name_[c.drive->config().name] = &c;
 }
 
 absl::StatusOr<Drive*> DriveServiceCore::Find(const std::string& field,
                                               const std::string& name) const {
+  absl::StatusOr<const Configured*> c = FindConfigured(field, name);
+  if (!c.ok()) return c.status();
+  return (*c)->drive;
+}
+
+absl::StatusOr<const DriveServiceCore::Configured*> DriveServiceCore::FindConfigured(
+    const std::string& field, const std::string& name) const {
   if (name.empty()) return FieldError(field, "is required (\"drives/{drive}\")");
   absl::string_view id = name;
   if (absl::StartsWith(id, "drives/")) id.remove_prefix(7);
   if (id.empty() || absl::StrContains(id, '/')) {
     return FieldError(field, absl::StrCat("'", name, "' is not a drive name (\"drives/{drive}\")"));
   }
-  auto it = by_name_.find(std::string(id));
+  auto it = by_name_.find(std::string_view(id.data(), id.size()));
   if (it == by_name_.end()) {
     return absl::NotFoundError(absl::StrCat(field, ": drives/", id, " is not configured"));
   }
@@ -107,30 +120,43 @@ absl::StatusOr<v1::CommandHandle> DriveServiceCore::RunCommand(
   return out;
 }
 
-absl::StatusOr<v1::ListDrivesResponse> DriveServiceCore::ListDrives(const v1::ListDrivesRequest&,
-                                                                    const CallContext&) {
+absl::StatusOr<v1::ListDrivesResponse> DriveServiceCore::ListDrives(const v1::ListDrivesRequest& r,
+                                                                    const CallContext& c) {
   v1::ListDrivesResponse resp;
-  for (const auto& d : drives_) {
-    v1::GetDriveRequest g;
-    g.set_name(DriveResourceName(d->config().name));
-    auto one = GetDrive(g, {});
-    if (one.ok()) *resp.add_drives() = *std::move(one);
-  }
+  DGW_RETURN_IF_ERROR(ListDrives(r, c, &resp));
   return resp;
 }
 
+absl::Status DriveServiceCore::ListDrives(const v1::ListDrivesRequest&, const CallContext&,
+                                          v1::ListDrivesResponse* out) {
+  for (const Configured& d : configured_) FillDrive(d, out->add_drives());
+  return absl::OkStatus();
+}
+
 absl::StatusOr<v1::Drive> DriveServiceCore::GetDrive(const v1::GetDriveRequest& r,
-                                                     const CallContext&) {
-  auto drive = Find("name", r.name());
-  if (!drive.ok()) return drive.status();
-  Drive& d = **drive;
+                                                     const CallContext& c) {
   v1::Drive out;
-  out.set_name(DriveResourceName(d.config().name));
-  out.set_family(d.config().family);
-  out.set_endpoint(d.endpoint());
-  *out.mutable_axis() = ToProto(d.config().axis);
-  *out.mutable_status() = StatusToProto(d, d.GetStatus());
+  DGW_RETURN_IF_ERROR(GetDrive(r, c, &out));
   return out;
+}
+
+absl::Status DriveServiceCore::GetDrive(const v1::GetDriveRequest& r, const CallContext&,
+                                        v1::Drive* out) {
+  absl::StatusOr<const Configured*> drive = FindConfigured("name", r.name());
+  if (!drive.ok()) return drive.status();
+  FillDrive(**drive, out);
+  return absl::OkStatus();
+}
+
+void DriveServiceCore::FillDrive(const Configured& c, v1::Drive* out) const {
+  // Every field from the drive at this call (the status snapshot, link counters, endpoint): only
+  // the resource name, derived from the const config, is kept (decision 1363).
+  const Drive& d = *c.drive;
+  out->set_name(c.resource_name);
+  out->set_family(d.config().family);
+  out->set_endpoint(d.endpoint());
+  FillAxis(d.config().axis, out->mutable_axis());
+  FillStatus(d, c.resource_name, d.GetStatus(), out->mutable_status());
 }
 
 absl::StatusOr<v1::CommandHandle> DriveServiceCore::Enable(const v1::EnableRequest& r,

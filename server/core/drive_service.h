@@ -39,6 +39,11 @@ class DriveServiceCore {
   absl::StatusOr<v1::ListDrivesResponse> ListDrives(const v1::ListDrivesRequest& r,
                                                     const CallContext& c);
   absl::StatusOr<v1::Drive> GetDrive(const v1::GetDriveRequest& r, const CallContext& c);
+  // The same two reads written into an empty message the caller owns (the REST direct path puts
+  // it on an arena, decision 1363); `out` is left empty on an error.
+  absl::Status ListDrives(const v1::ListDrivesRequest& r, const CallContext& c,
+                          v1::ListDrivesResponse* out);
+  absl::Status GetDrive(const v1::GetDriveRequest& r, const CallContext& c, v1::Drive* out);
   absl::StatusOr<v1::CommandHandle> Enable(const v1::EnableRequest& r, const CallContext& c);
   absl::StatusOr<v1::CommandHandle> Disable(const v1::DisableRequest& r, const CallContext& c);
   absl::StatusOr<v1::CommandHandle> Home(const v1::HomeRequest& r, const CallContext& c);
@@ -96,9 +101,19 @@ class DriveServiceCore {
   const std::vector<std::shared_ptr<Drive>>& drives() const { return drives_; }
 
  private:
+  // A configured drive with its resource name "drives/x1", formatted once: the name is the
+  // drive's const config (decision 1363). The endpoint is not kept here: Drive::endpoint() is
+  // asked per read, a drive may report a new one (DirectReadsCacheTest).
+  struct Configured {
+    Drive* drive = nullptr;
+    std::string resource_name;
+  };
   // "drives/x1" (or "x1") -> the drive; NotFound naming the resource, InvalidArgument for a
   // malformed name.
+  absl::StatusOr<const Configured*> FindConfigured(const std::string& field,
+                                                   const std::string& name) const;
   absl::StatusOr<Drive*> Find(const std::string& field, const std::string& name) const;
+  void FillDrive(const Configured& d, v1::Drive* out) const;
   template <typename Req>
   absl::StatusOr<v1::CommandHandle> RunCommand(
       const char* action, const Req& r, const CallContext& c,
@@ -107,7 +122,8 @@ class DriveServiceCore {
              const google::protobuf::Message& request, const absl::Status& result);
 
   std::vector<std::shared_ptr<Drive>> drives_;
-  std::map<std::string, Drive*> by_name_;
+  std::vector<Configured> configured_;  // drives_'s order (ListDrives)
+  std::map<std::string, const Configured*, std::less<>> by_name_;
   storage::AuditLog* audit_;
   const LeaseManager* leases_;
   std::atomic<bool> shutting_down_{false};

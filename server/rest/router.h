@@ -151,6 +151,8 @@ struct Route {
   std::string grpc_path;  // "/drivegw.v1.DriveService/MoveAbsolute"
   bool server_streaming = false;
   DirectUnary direct;  // set: served by RouterOptions::direct_unary, not over gRPC
+  // Direct routes: the output type's generated prototype, looked up once (decision 1363).
+  const google::protobuf::Message* response_prototype = nullptr;
   // Per path variable, in path.variables() order (the order Match binds them): its request
   // field path resolved once in Create, and that path's proto field names joined by "."
   // (decision 1362: no descriptor lookup per request).

@@ -155,14 +155,16 @@ Duration PlannedVaiDuration(double distance_mm, double v0_mm_s, double vmax_mm_s
 }
 
 LinMotUdpDrive::LinMotUdpDrive(DriveConfig config, const Clock& clock)
-    : DriveBase(std::move(config)), clock_(clock), name_(this->config().name) {}
+    : DriveBase(std::move(config)),
+      clock_(clock),
+      name_(this->config().name),
+      endpoint_(this->config().linudp ? absl::StrCat("udp://", this->config().linudp->host, ":",
+                                                     this->config().linudp->port)
+                                      : "udp://?") {}
 
 LinMotUdpDrive::~LinMotUdpDrive() { Deactivate(); }
 
-std::string LinMotUdpDrive::endpoint() const {
-  const LinUdpConfig& c = *config().linudp;
-  return absl::StrCat("udp://", c.host, ":", c.port);
-}
+std::string LinMotUdpDrive::endpoint() const { return endpoint_; }
 
 // ---------------------------------------------------------------------------------------------
 // Lifecycle.

@@ -283,6 +283,8 @@ class LinMotUdpDrive final : public DriveBase, private SessionPeer {
 
   const Clock& clock_;
   const std::string name_;
+  // "udp://host:port", formatted once: host and port are the const config's (decision 1363).
+  const std::string endpoint_;
   const std::shared_ptr<std::atomic<bool>> wire_trace_ = std::make_shared<std::atomic<bool>>(false);
 
   std::mutex op_mu_;   // one control-word / motion operation at a time

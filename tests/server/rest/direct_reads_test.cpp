@@ -18,7 +18,10 @@
 #include <vector>
 
 #include "adapters/core/clock.h"
+#include "google/protobuf/arena.h"
 #include "google/protobuf/util/json_util.h"
+#include "google/protobuf/util/message_differencer.h"
+#include "google/protobuf/util/time_util.h"
 #include "server/auth/authenticator.h"
 #include "server/core/drive_service.h"
 #include "server/grpc/call_auth.h"
@@ -480,6 +483,76 @@ TEST(DirectReadsCacheTest, EveryStatusFieldChange_VisibleInNextGet) {
     EXPECT_EQ(get("/v1/drives/s1"), now);
     EXPECT_EQ(get_cache->hits(), hits + 1);
   }
+}
+
+// Decision 1363: the core writes GetDrive and ListDrives into a message the caller owns (the
+// direct route's arena). On an arena they must equal the returned messages, each read must show
+// a change made just before it (endpoint, counters and status are asked per read; only the
+// resource name is kept), a refused read leaves the message empty, and timestamps written in
+// place must equal TimeUtil's normalisation (seconds floored, nanos in [0, 1e9)).
+TEST(DirectReadsArenaTest, InPlaceReadsOnArena_EqualReturnedOnes_AndShowEveryChange) {
+  auto drive = std::make_shared<ScriptedDrive>();
+  server::DriveServiceCore core({drive}, nullptr);
+  v1::GetDriveRequest req;
+  req.set_name("drives/s1");
+  // EXPECTs only: a lambda returning a value cannot ASSERT.
+  const auto check = [&](const std::string& what) -> v1::Drive {
+    SCOPED_TRACE(what);
+    google::protobuf::Arena arena;
+    auto* in_place = google::protobuf::Arena::CreateMessage<v1::Drive>(&arena);
+    EXPECT_TRUE(core.GetDrive(req, {}, in_place).ok());
+    auto returned = core.GetDrive(req, {});
+    EXPECT_TRUE(returned.ok()) << returned.status();
+    if (!returned.ok()) return {};
+    EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(*in_place, *returned))
+        << in_place->DebugString() << " vs " << returned->DebugString();
+    auto* list = google::protobuf::Arena::CreateMessage<v1::ListDrivesResponse>(&arena);
+    EXPECT_TRUE(core.ListDrives({}, {}, list).ok());
+    EXPECT_EQ(list->drives_size(), 1);
+    if (list->drives_size() == 1) {
+      EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(list->drives(0), *returned));
+    }
+    return *returned;
+  };
+  v1::Drive before = check("initial");
+  EXPECT_EQ(before.name(), "drives/s1");
+  EXPECT_EQ(before.status().name(), "drives/s1");
+
+  drive->Edit([](DriveStatus&, LinkHealth&, std::string& e) { e = "udp://10.0.0.9:1"; });
+  EXPECT_EQ(check("endpoint").endpoint(), "udp://10.0.0.9:1");
+  drive->Edit([](DriveStatus&, LinkHealth& l, std::string&) { l.replies = 41; });
+  EXPECT_EQ(check("link").status().link().replies(), 41u);
+  drive->Edit([](DriveStatus& s, LinkHealth&, std::string&) { s.native.text = "Operation On"; });
+  EXPECT_EQ(check("native text").status().native_state().text(), "Operation On");
+
+  using std::chrono::nanoseconds;
+  for (const int64_t ns : {int64_t{-1'500'000'000}, int64_t{-1}, int64_t{0}, int64_t{1'999'999'999},
+                           int64_t{1'765'000'000'123'456'789}}) {
+    SCOPED_TRACE(ns);
+    const WallTime t{std::chrono::duration_cast<WallTime::duration>(nanoseconds(ns))};
+    drive->Edit([&](DriveStatus& s, LinkHealth&, std::string&) {
+      s.time = t;
+      s.last_command = CommandInfo{2, "Home", CommandState::kDone, "", t, t, {}};
+      s.health = HealthInfo{HealthState::kUp, t, 0, ""};
+    });
+    const v1::Drive d = check("time");
+    const auto expected = google::protobuf::util::TimeUtil::NanosecondsToTimestamp(ns);
+    for (const google::protobuf::Timestamp* ts :
+         {&d.status().time(), &d.status().last_command().create_time(),
+          &d.status().last_command().end_time(), &d.status().health().since()}) {
+      EXPECT_EQ(ts->seconds(), expected.seconds());
+      EXPECT_EQ(ts->nanos(), expected.nanos());
+    }
+  }
+
+  google::protobuf::Arena arena;
+  auto* refused = google::protobuf::Arena::CreateMessage<v1::Drive>(&arena);
+  v1::GetDriveRequest unknown;
+  unknown.set_name("drives/nope");
+  const absl::Status status = core.GetDrive(unknown, {}, refused);
+  EXPECT_EQ(status, core.GetDrive(unknown, {}).status());
+  EXPECT_EQ(status.code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(refused->ByteSizeLong(), 0u);
 }
 
 }  // namespace
