@@ -20,7 +20,9 @@ using namespace std::chrono_literals;
 namespace co = drivegw::canopen;
 
 constexpr Duration kWorkerTick = 20ms;
-constexpr Duration kMinExecuteLow = 3ms;  // decision 1197 (1179: ≥ one A150 cycle)
+constexpr Duration kStatusRefresh = 100ms;  // TPDO1 event timer (object_map.cpp MakeLayout)
+constexpr int kDoneRepeats = 3;             // decision 1484
+constexpr Duration kMinExecuteLow = 3ms;    // decision 1197 (1179: ≥ one A150 cycle)
 constexpr Duration kEdgeFallback = 10ms;
 constexpr int kAcceptCycles = 4;  // decision 1207: A150/SYNC periods added to timeouts.accept
 constexpr Duration kResetRetry = 100ms;      // a fault reset edge not taken is repeated     // the
@@ -301,6 +303,8 @@ absl::Status StoberDrive::Configure() {
   double travel = 0;
   uint8_t command_mode = 0;
   double end_velocity = 0;
+  double position_window = 0;
+  double velocity_window = 0;
   {
     DGW_ASSIGN_OR_RETURN(double cw, read({0x6040, 0}));
     image.control_word = static_cast<uint16_t>(cw);
@@ -325,6 +329,8 @@ absl::Status StoberDrive::Configure() {
     DGW_ASSIGN_OR_RETURN(end_velocity, param("I429"));
     DGW_ASSIGN_OR_RETURN(cycle_ms, param("A150"));
     DGW_ASSIGN_OR_RETURN(travel, param("I00"));
+    DGW_ASSIGN_OR_RETURN(position_window, param("I22"));
+    DGW_ASSIGN_OR_RETURN(velocity_window, param("C40"));
     DGW_ASSIGN_OR_RETURN(double plc, param("I89"));
     DGW_ASSIGN_OR_RETURN(double cause, param("I90"));
     auto flags = m->ReadU32(node_, kStatusFlagsIndex, kStatusFlagsSub, deadline());
@@ -347,6 +353,9 @@ absl::Status StoberDrive::Configure() {
     end_velocity_ = end_velocity;
     status_ = status;
     actual_ = actual;
+    actual_at_ = clock_.Now();
+    position_window_ = position_window;
+    velocity_window_ = velocity_window;
     cycle_ = std::chrono::duration_cast<Duration>(
         std::chrono::duration<double, std::milli>(std::max(cycle_ms, 0.125)));
     if (SyncRpdos()) cycle_ += c.sync_period;  // an RPDO acts at the next SYNC (decision 1119)
@@ -437,6 +446,16 @@ void StoberDrive::OnTpdo(const co::TpdoEvent& event) noexcept {
     status_ = *s;
     ++status_seq_;
     ++counters_.status_tpdos;
+    if (tracker_ && tracker_->done_withheld) {
+      // Decision 1484: a status without Done after a withheld one shows the command running; the
+      // withheld Done was stale. Done frames in a row are the node's own refreshes.
+      if (s->done()) {
+        ++tracker_->done_frames;
+      } else {
+        tracker_->done_withheld = false;
+        tracker_->done_frames = 0;
+      }
+    }
     EvaluateTrackerLocked(clock_.Now());
   } else if (event.number == 2) {
     auto a = DecodeActualTpdo(event.payload());
@@ -445,7 +464,10 @@ void StoberDrive::OnTpdo(const co::TpdoEvent& event) noexcept {
       return;
     }
     actual_ = *a;
+    actual_at_ = clock_.Now();
     ++counters_.actual_tpdos;
+    // A Done held back for want of this witness is decided now (decision 1484).
+    if (tracker_ && tracker_->done_withheld) EvaluateTrackerLocked(actual_at_);
   } else {
     return;
   }
@@ -655,11 +677,41 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
                                   " denied or cancelled by the motion core: I90 ", s.cause, ": ",
                                   CauseText(s.cause)));
   } else if (state == CommandState::kDone) {
+    if (!tracker_->done_withheld) {
+      tracker_->done_frames = 1;
+      tracker_->done_since = now;
+    }
+    // The node repeats its status every kStatusRefresh (TPDO1 event timer, decision 1175): Done
+    // in kDoneRepeats frames in a row over two periods is the node's present state even if
+    // TPDO2 never shows the expected target (a relative base the gateway saw late, I22 or C40
+    // written since the configuration); a duplicated or held frame is at most two.
+    const bool repeated = tracker_->done_withheld && tracker_->done_frames >= kDoneRepeats &&
+                          now - tracker_->done_since >= 2 * kStatusRefresh;
+    if (!repeated && !ArrivedLocked(*tracker_)) {
+      // Decision 1484: I92 alone does not say which command it belongs to; a duplicated or
+      // reordered TPDO1 from before the edge carries the previous command's Done. DONE waits
+      // for TPDO2 (event timer 100 ms, decision 1175) to show the axis where the node's own
+      // Done rule puts it (I180 = actual in I22, I85 profile done; stober-motion.md §2.3 L390).
+      if (!tracker_->done_withheld) ++counters_.done_withheld;
+      tracker_->done_withheld = true;
+      UpdateCommand(tracker_->id, CommandState::kActive);
+      return;
+    }
     demand_reached_ = demand_target_.has_value();
     EndTrackerLocked(CommandState::kDone, "");
   } else if (state == CommandState::kActive) {
     UpdateCommand(tracker_->id, CommandState::kActive);
   }
+}
+
+bool StoberDrive::ArrivedLocked(const Tracker& t) const {
+  if (!t.target || endless_) return true;
+  // A TPDO2 produced before the edge was applied says nothing about this command.
+  if (actual_at_ < t.edge_sent + cycle_) return false;
+  // One increment (0.001 u, object_map.cpp kUPos) of slack for the integer wire values.
+  constexpr double kIncrement = 0.001;
+  return std::abs(actual_.position - *t.target) <= position_window_ + kIncrement &&
+         std::abs(actual_.velocity) <= velocity_window_ + kIncrement;
 }
 
 absl::Status StoberDrive::RequireOnlineLocked(const std::string& what) const {
@@ -1028,6 +1080,16 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
   t.kind = start.kind;
   t.progress.command = start.command;
   t.progress.reset_seen = clean;
+  // Decision 1484: where Done must find the axis. MoveRelative counts from the actual position
+  // (I96 = I403 + I80, stober-motion.md G-27), known here only at standstill; MoveAdditive's
+  // base (the previous set position) is not on the bus.
+  const bool standstill = status_ && status_->plc_state == kPlcStandstill &&
+                          (status_->flags & status_bit::kStandstill) != 0;
+  if (start.command == mc::kMoveAbsolute) {
+    t.target = start.position;
+  } else if (start.command == mc::kMoveRelative && standstill) {
+    t.target = actual_.position + start.position;
+  }
   if (start.homing) t.deadline = clock_.Now() + config().timeouts.homing;
   if (buffered) {
     pending_ = t;

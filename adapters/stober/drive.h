@@ -40,6 +40,9 @@ struct StoberDriveCounters {
   uint64_t heartbeat_losses = 0;
   uint64_t emcy = 0;
   uint64_t execute_retries = 0;  // Execute edges repeated because the node did not take one (1207)
+  // Positioning Done (I92) seen while TPDO2 did not show the axis at rest at the target: a
+  // duplicated or reordered status frame from before the edge; DONE waits (decision 1484).
+  uint64_t done_withheld = 0;
 };
 
 // The RPDO images the drive keeps (every RPDO carries all its fields, so the unchanged ones are
@@ -114,6 +117,12 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
     bool counted = false;               // a TPDO1 produced after the edge arrived
     bool buffered_seen = false;         // pending: the node showed it buffered (I83 = 2)
     std::optional<TimePoint> deadline;  // homing
+    // Positioning with a target the gateway knows (MoveAbsolute; MoveRelative from standstill):
+    // its Done counts only with a TPDO2 after the edge at rest within I22 of it (decision 1484).
+    std::optional<double> target;
+    bool done_withheld = false;
+    int done_frames = 0;     // TPDO1s in a row showing Done since it was withheld
+    TimePoint done_since{};  // the first of them
   };
 
   // NodeObserver (receive thread).
@@ -143,6 +152,9 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   DriveStatus BuildStatusLocked() const;
   void PublishLocked();
   void EvaluateTrackerLocked(TimePoint now);
+  // Decision 1484: the latest TPDO2, produced after `t`'s edge, shows the axis at rest (|606Ch|
+  // ≤ C40) within the node's position window I22 of t.target; true without a target.
+  bool ArrivedLocked(const Tracker& t) const;
   // The buffered handle (decision 1210): true when it consumed the status (waiting, chain
   // error); false before its edge counts, or after it took over (tracker_ is then evaluated).
   bool EvaluatePendingLocked(TimePoint now);
@@ -217,6 +229,10 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   std::string offline_reason_ = "not configured yet";
   std::optional<MotionStatus> status_;
   ActualValues actual_;
+  TimePoint actual_at_{};  // arrival of the TPDO2 in actual_
+  // I22 position window and C40 velocity window, read at configuration (decision 1484).
+  double position_window_ = 0;
+  double velocity_window_ = 0;
   uint64_t status_seq_ = 0;
   uint64_t heartbeats_ = 0;  // heartbeats seen
   canopen::NmtState heartbeat_state_ = canopen::NmtState::kBootUp;

@@ -194,6 +194,52 @@ TEST_F(StoberDriveTest, LostExecuteEdgeIsRepeatedOnce) {
   EXPECT_EQ(drive_->counters().execute_retries, 1u);
 }
 
+// Decision 1484 (issue 11: DONE 0.16 mm before the target under 10 % loss). A duplicated or
+// held TPDO1 carrying the previous positioning's Done, delivered after the next Execute edge and
+// its forced-0 cycle, is indistinguishable by content from the new command's Done; taken as
+// such, DONE was reported while the axis was still moving. The frame order is injected here:
+// the node's own Done frame of the first move, re-sent on the bus mid-way through the second.
+TEST_F(StoberDriveTest, StaleDoneTpdoAfterTheEdgeIsNotTheNewCommandsDone) {
+  Start();
+  Enable();
+  Referenced();
+  auto peer = transport::OpenCanChannel(bus_);
+  ASSERT_TRUE(peer.ok()) << peer.status();
+  const CommandInfo first = Move(MoveAbsolute{20, 500, 5000, 5000});
+  ASSERT_EQ(WaitFinal(first.id).state, CommandState::kDone);
+  AtRest(20);
+  // The node's latest TPDO1 (refreshed every 100 ms) now says Done.
+  std::optional<transport::CanFrame> done_frame;
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (!done_frame && std::chrono::steady_clock::now() < deadline) {
+    auto f = (*peer)->Receive(100ms);
+    ASSERT_TRUE(f.ok()) << f.status();
+    if (!f->has_value() || (*f)->id != 0x180u + kNode) continue;
+    auto s = DecodeStatusTpdo((*f)->payload());
+    if (s.ok() && s->done()) done_frame = **f;
+  }
+  ASSERT_TRUE(done_frame.has_value());
+  for (const bool relative : {true, false}) {
+    SCOPED_TRACE(relative ? "MoveRelative" : "MoveAbsolute");
+    const double from = SimPosition();
+    const double target = from + 5;
+    // 5 mm at 10 mm/s: about half a second of motion after Move returns ACTIVE.
+    const CommandInfo second = relative ? Move(MoveRelative{5, 10, 1000, 1000})
+                                        : Move(MoveAbsolute{target, 10, 1000, 1000});
+    ASSERT_EQ(second.state, CommandState::kActive) << second.message;
+    const uint64_t withheld = drive_->counters().done_withheld;
+    // The stale Done and its duplicate, after the edge and the node's I92 = 0 cycle.
+    ASSERT_TRUE((*peer)->Send(*done_frame).ok());
+    ASSERT_TRUE((*peer)->Send(*done_frame).ok());
+    const CommandInfo final = WaitFinal(second.id);
+    const double at = SimPosition();
+    EXPECT_EQ(final.state, CommandState::kDone) << final.message;
+    EXPECT_NEAR(at, target, 1e-6) << "DONE before arriving";
+    EXPECT_GT(drive_->counters().done_withheld, withheld);
+    AtRest(target);
+  }
+}
+
 TEST_F(StoberDriveTest, DisableAndReEnable) {
   Start();
   Enable();
