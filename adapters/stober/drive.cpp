@@ -706,11 +706,14 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
 
 bool StoberDrive::ArrivedLocked(const Tracker& t) const {
   if (!t.target || endless_) return true;
-  // A TPDO2 produced before the edge was applied says nothing about this command.
-  if (actual_at_ < t.edge_sent + cycle_) return false;
   // One increment (0.001 u, object_map.cpp kUPos) of slack for the integer wire values.
   constexpr double kIncrement = 0.001;
-  return std::abs(actual_.position - *t.target) <= position_window_ + kIncrement &&
+  // A TPDO2 produced before the edge was applied says where the axis stood, not where this
+  // command took it: it witnesses only a positioning that had nothing to do (already at the
+  // target to one increment, at rest), else a move shorter than I22 could pass.
+  const bool after_edge = actual_at_ >= t.edge_sent + cycle_;
+  const double window = after_edge ? position_window_ + kIncrement : kIncrement;
+  return std::abs(actual_.position - *t.target) <= window &&
          std::abs(actual_.velocity) <= velocity_window_ + kIncrement;
 }
 

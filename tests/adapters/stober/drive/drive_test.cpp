@@ -240,6 +240,42 @@ TEST_F(StoberDriveTest, StaleDoneTpdoAfterTheEdgeIsNotTheNewCommandsDone) {
   }
 }
 
+// Decision 1484, liveness: when TPDO2 never shows the target the gateway expects (here a
+// MoveRelative whose base the gateway took from a stale TPDO2, 3 mm behind the axis), the node's
+// Done repeated by the TPDO1 event timer (3 frames, 200 ms) still ends the handle DONE, where the
+// node really stopped; it does not stay ACTIVE for ever.
+TEST_F(StoberDriveTest, DoneRepeatedByTheNodeEndsTheMoveWhenTpdo2NeverMatches) {
+  Start();
+  Enable();
+  Referenced();
+  auto peer = transport::OpenCanChannel(bus_);
+  ASSERT_TRUE(peer.ok()) << peer.status();
+  const CommandInfo first = Move(MoveAbsolute{10, 500, 5000, 5000});
+  ASSERT_EQ(WaitFinal(first.id).state, CommandState::kDone);
+  AtRest(10);
+  std::optional<transport::CanFrame> at_10;  // the node's TPDO2 at rest at 10 mm
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (!at_10 && std::chrono::steady_clock::now() < deadline) {
+    auto f = (*peer)->Receive(100ms);
+    ASSERT_TRUE(f.ok()) << f.status();
+    if (!f->has_value() || (*f)->id != 0x280u + kNode) continue;
+    auto a = DecodeActualTpdo((*f)->payload());
+    if (a.ok() && std::abs(a->position - 10) < 1e-6) at_10 = **f;
+  }
+  ASSERT_TRUE(at_10.has_value());
+  const CommandInfo second = Move(MoveAbsolute{13, 500, 5000, 5000});
+  ASSERT_EQ(WaitFinal(second.id).state, CommandState::kDone);
+  AtRest(13);
+  // The stale frame makes the gateway believe the axis stands at 10 (until the node's next
+  // TPDO2, at most 100 ms later); the relative move starts from there.
+  ASSERT_TRUE((*peer)->Send(*at_10).ok());
+  WaitUntil([](const DriveStatus& s) { return std::abs(s.position_mm - 10) < 1e-6; });
+  const CommandInfo rel = Move(MoveRelative{4, 500, 5000, 5000});
+  const CommandInfo final = WaitFinal(rel.id);
+  EXPECT_EQ(final.state, CommandState::kDone) << final.message;
+  EXPECT_NEAR(SimPosition(), 17, 1e-6);  // the node's own base: 13 + 4
+}
+
 TEST_F(StoberDriveTest, DisableAndReEnable) {
   Start();
   Enable();

@@ -239,7 +239,7 @@ TEST_F(StoberFaultTest, TenPercentLossBothWays_NoUnrequestedMotion_NoFalseDone_R
       "node received: dropped %llu duplicated %llu reordered %llu of %llu; node sent: dropped "
       "%llu duplicated %llu reordered %llu of %llu; master sdo ok %llu failed %llu timeouts %llu "
       "retries %llu stale %llu rpdo %llu tpdo %llu heartbeat lost %llu; drive execute retries "
-      "%llu configurations %llu\n",
+      "%llu configurations %llu; Done withheld (decision 1484) %llu\n",
       (unsigned long long)ic.receive.dropped, (unsigned long long)ic.receive.duplicated,
       (unsigned long long)ic.receive.reordered, (unsigned long long)ic.receive.decided,
       (unsigned long long)ic.send.dropped, (unsigned long long)ic.send.duplicated,
@@ -248,7 +248,8 @@ TEST_F(StoberFaultTest, TenPercentLossBothWays_NoUnrequestedMotion_NoFalseDone_R
       (unsigned long long)mc->sdo_timeouts, (unsigned long long)mc->sdo_retries,
       (unsigned long long)mc->sdo_stale_responses, (unsigned long long)mc->rpdo_sent,
       (unsigned long long)mc->tpdo_received, (unsigned long long)mc->heartbeat_lost,
-      (unsigned long long)dc.execute_retries, (unsigned long long)dc.configurations);
+      (unsigned long long)dc.execute_retries, (unsigned long long)dc.configurations,
+      (unsigned long long)dc.done_withheld);
   EXPECT_GT(ic.receive.dropped, 0u);
   EXPECT_GT(ic.send.dropped, 0u);
 
