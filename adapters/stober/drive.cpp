@@ -22,7 +22,8 @@ namespace co = drivegw::canopen;
 constexpr Duration kWorkerTick = 20ms;
 constexpr Duration kStatusRefresh = 100ms;  // TPDO1 event timer (object_map.cpp MakeLayout)
 constexpr int kDoneRepeats = 3;             // decision 1484
-constexpr Duration kMinExecuteLow = 3ms;    // decision 1197 (1179: ≥ one A150 cycle)
+constexpr double kIncrement = 0.001;      // one wire increment of a position (object_map.cpp kUPos)
+constexpr Duration kMinExecuteLow = 3ms;  // decision 1197 (1179: ≥ one A150 cycle)
 constexpr Duration kEdgeFallback = 10ms;
 constexpr int kAcceptCycles = 4;  // decision 1207: A150/SYNC periods added to timeouts.accept
 constexpr Duration kResetRetry = 100ms;      // a fault reset edge not taken is repeated     // the
@@ -466,8 +467,15 @@ void StoberDrive::OnTpdo(const co::TpdoEvent& event) noexcept {
     actual_ = *a;
     actual_at_ = clock_.Now();
     ++counters_.actual_tpdos;
+    // Decision 1485: the axis left the start position after the edge, so the node took it.
+    bool moved_now = false;
+    if (tracker_ && tracker_->target && !endless_ && !tracker_->moved &&
+        actual_at_ >= tracker_->edge_sent + cycle_ &&
+        std::abs(actual_.position - tracker_->start_position) > position_window_ + kIncrement) {
+      tracker_->moved = moved_now = true;
+    }
     // A Done held back for want of this witness is decided now (decision 1484).
-    if (tracker_ && tracker_->done_withheld) EvaluateTrackerLocked(actual_at_);
+    if (tracker_ && (tracker_->done_withheld || moved_now)) EvaluateTrackerLocked(actual_at_);
   } else {
     return;
   }
@@ -670,6 +678,12 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
     if (now < tracker_->edge_sent + cycle_) return;  // produced before the edge was applied
     tracker_->counted = true;
   }
+  if (tracker_->moved) {
+    // Decision 1485: the axis moving away after the edge is this command running, even when
+    // its I92 = 0 cycle and the I89/I83 frames were lost; no re-edge may repeat it.
+    tracker_->progress.reset_seen = true;
+    tracker_->progress.active_seen = true;
+  }
   const CommandState state = Evaluate(tracker_->progress, s);
   if (state == CommandState::kError) {
     EndTrackerLocked(CommandState::kError,
@@ -685,7 +699,10 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
     // in kDoneRepeats frames in a row over two periods is the node's present state even if
     // TPDO2 never shows the expected target (a relative base the gateway saw late, I22 or C40
     // written since the configuration); a duplicated or held frame is at most two.
-    const bool repeated = tracker_->done_withheld && tracker_->done_frames >= kDoneRepeats &&
+    // Only once the axis has moved (decision 1485): a node that never took the edge shows the
+    // previous Done for ever.
+    const bool repeated = tracker_->moved && tracker_->done_withheld &&
+                          tracker_->done_frames >= kDoneRepeats &&
                           now - tracker_->done_since >= 2 * kStatusRefresh;
     if (!repeated && !ArrivedLocked(*tracker_)) {
       // Decision 1484: I92 alone does not say which command it belongs to; a duplicated or
@@ -694,7 +711,11 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
       // Done rule puts it (I180 = actual in I22, I85 profile done; stober-motion.md §2.3 L390).
       if (!tracker_->done_withheld) ++counters_.done_withheld;
       tracker_->done_withheld = true;
-      UpdateCommand(tracker_->id, CommandState::kActive);
+      // BUSY until the command shows itself running: if the edge was lost, the re-edge and
+      // the "did not take the Execute edge" error of decision 1207 still apply.
+      if (tracker_->progress.active_seen || tracker_->moved) {
+        UpdateCommand(tracker_->id, CommandState::kActive);
+      }
       return;
     }
     demand_reached_ = demand_target_.has_value();
@@ -706,8 +727,7 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
 
 bool StoberDrive::ArrivedLocked(const Tracker& t) const {
   if (!t.target || endless_) return true;
-  // One increment (0.001 u, object_map.cpp kUPos) of slack for the integer wire values.
-  constexpr double kIncrement = 0.001;
+  // One increment of slack for the integer wire values.
   // A TPDO2 produced before the edge was applied says where the axis stood, not where this
   // command took it: it witnesses only a positioning that had nothing to do (already at the
   // target to one increment, at rest), else a move shorter than I22 could pass.
@@ -1088,6 +1108,7 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
   // base (the previous set position) is not on the bus.
   const bool standstill = status_ && status_->plc_state == kPlcStandstill &&
                           (status_->flags & status_bit::kStandstill) != 0;
+  t.start_position = actual_.position;
   if (start.command == mc::kMoveAbsolute) {
     t.target = start.position;
   } else if (start.command == mc::kMoveRelative && standstill) {
