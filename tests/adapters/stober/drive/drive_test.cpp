@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <random>
@@ -39,6 +40,33 @@ uint32_t Id(const char* param) {
   const CanOpenAddress a = *ToCanOpen(P(param));
   return static_cast<uint32_t>(a.index) << 8 | a.sub_index;
 }
+
+// The node's channel with its status TPDO1 (0x180 + node) cut while `cut` is set: every
+// status change of a command lost, its position TPDO2 still on the bus (decision 1485).
+class CutStatusChannel final : public transport::CanChannel {
+ public:
+  CutStatusChannel(std::unique_ptr<transport::CanChannel> inner, std::atomic<bool>& cut)
+      : inner_(std::move(inner)), cut_(cut) {}
+  absl::Status Send(const transport::CanFrame& f) override {
+    if (cut_ && f.id == 0x180u + kNode) return absl::OkStatus();
+    return inner_->Send(f);
+  }
+  absl::StatusOr<std::optional<transport::CanFrame>> Receive(
+      std::chrono::nanoseconds timeout) override {
+    return inner_->Receive(timeout);
+  }
+  void Wake() override { inner_->Wake(); }
+  absl::Status SetFilters(std::span<const transport::CanFilter> filters) override {
+    return inner_->SetFilters(filters);
+  }
+  transport::CanBusState state() const override { return inner_->state(); }
+  transport::CanCounters counters() const override { return inner_->counters(); }
+  std::string name() const override { return inner_->name(); }
+
+ private:
+  std::unique_ptr<transport::CanChannel> inner_;
+  std::atomic<bool>& cut_;
+};
 
 class StoberDriveTest : public ::testing::Test {
  protected:
@@ -274,6 +302,49 @@ TEST_F(StoberDriveTest, DoneRepeatedByTheNodeEndsTheMoveWhenTpdo2NeverMatches) {
   const CommandInfo final = WaitFinal(rel.id);
   EXPECT_EQ(final.state, CommandState::kDone) << final.message;
   EXPECT_NEAR(SimPosition(), 17, 1e-6);  // the node's own base: 13 + 4
+}
+
+// Decision 1485 (issue 11: a relative move executed twice under 10 % loss, seeds 707/708). The
+// node takes the edge, but every status TPDO1 of the move is lost: by TPDO1 alone the command
+// stays BUSY, and decision 1207's re-edge started the relative move a second time. TPDO2 shows
+// the axis leaving the start position after the edge: the edge was taken, no re-edge.
+TEST_F(StoberDriveTest, EdgeTakenButEveryStatusTpdoLost_NoReEdgeNoSecondMotion) {
+  bus_.kind = CanBusConfig::Kind::kUdpMulticast;
+  bus_.group = kGroup;
+  bus_.port = RandomPort();
+  std::atomic<bool> cut{false};
+  auto inner = transport::OpenCanChannel(bus_);
+  ASSERT_TRUE(inner.ok()) << inner.status();
+  ss::AxisServerOptions o;
+  o.node_id = kNode;
+  o.can = bus_;
+  auto server = ss::AxisServer::Start(o, SteadyClock::Instance(),
+                                      std::make_unique<CutStatusChannel>(*std::move(inner), cut));
+  ASSERT_TRUE(server.ok()) << server.status();
+  server_ = std::move(*server);
+  // The evidence must come within the acceptance window; a loaded host gets a lossy bench's.
+  config_.timeouts.accept = 300ms;
+  StartDrive();
+  ASSERT_NE(WaitUntil([](const DriveStatus& s) { return s.state != DriveState::kOffline; }).state,
+            DriveState::kOffline);
+  Enable();
+  Referenced();
+  const CommandInfo first = Move(MoveAbsolute{20, 500, 5000, 5000});
+  ASSERT_EQ(WaitFinal(first.id).state, CommandState::kDone);
+  AtRest(20);
+  cut = true;
+  // I22 (1 mm) is left after ≈ 15 ms; without the evidence the re-edge comes after 300 ms.
+  const CommandInfo rel = Move(MoveRelative{5, 100, 10000, 10000});
+  EXPECT_EQ(rel.state, CommandState::kActive) << rel.message;
+  EXPECT_EQ(drive_->counters().execute_retries, 0u);
+  WaitUntil([&](const DriveStatus& s) { return std::abs(s.position_mm - 25) < 1e-6; });
+  cut = false;  // the node's next TPDO1 refresh (100 ms) shows its Done
+  const CommandInfo final = WaitFinal(rel.id);
+  EXPECT_EQ(final.state, CommandState::kDone) << final.message;
+  EXPECT_NEAR(SimPosition(), 25, 1e-6);
+  std::vector<double> started;
+  server_->WithAxis([&](ss::MotionCore& c) { started = c.started_targets(); });
+  EXPECT_THAT(started, ::testing::ElementsAre(20, 25)) << "one positioning per command";
 }
 
 TEST_F(StoberDriveTest, DisableAndReEnable) {
