@@ -10,7 +10,9 @@
 #include <atomic>
 #include <chrono>
 #include <functional>
+#include <optional>
 #include <random>
+#include <span>
 #include <thread>
 
 #include "adapters/stober/factory.h"
@@ -39,6 +41,20 @@ uint16_t RandomPort() {
 uint32_t Id(const char* param) {
   const CanOpenAddress a = *ToCanOpen(P(param));
   return static_cast<uint32_t>(a.index) << 8 | a.sub_index;
+}
+
+// The next frame `id` on the bus whose payload `pred` accepts, within 5 s (a stale frame to
+// re-send later, decisions 1484/1485).
+std::optional<transport::CanFrame> NextFrame(
+    transport::CanChannel& peer, uint32_t id,
+    const std::function<bool(std::span<const uint8_t>)>& pred) {
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (std::chrono::steady_clock::now() < deadline) {
+    auto f = peer.Receive(100ms);
+    if (!f.ok()) return std::nullopt;
+    if (f->has_value() && (*f)->id == id && pred((*f)->payload())) return **f;
+  }
+  return std::nullopt;
 }
 
 // The node's channel with its status TPDO1 (0x180 + node) cut while `cut` is set: every
@@ -134,6 +150,19 @@ class StoberDriveTest : public ::testing::Test {
     EXPECT_TRUE(r.ok()) << r.status();
     return r.ok() ? *r : CommandInfo{};
   }
+  // Enabled, referenced, at rest at `mm` after a MoveAbsolute; `peer` is a channel on the bus,
+  // opened before that move (decisions 1484/1485 re-send the node's frames on it).
+  void AtRestWithPeer(double mm, std::unique_ptr<transport::CanChannel>& peer) {
+    Start();
+    Enable();
+    Referenced();
+    auto p = transport::OpenCanChannel(bus_);
+    ASSERT_TRUE(p.ok()) << p.status();
+    peer = *std::move(p);
+    const CommandInfo m = Move(MoveAbsolute{mm, 500, 5000, 5000});
+    ASSERT_EQ(WaitFinal(m.id).state, CommandState::kDone);
+    AtRest(mm);
+  }
   double SimPosition() {
     double p = 0;
     server_->WithAxis([&](ss::MotionCore& c) { p = *c.Read(P("I80")); });
@@ -228,24 +257,14 @@ TEST_F(StoberDriveTest, LostExecuteEdgeIsRepeatedOnce) {
 // such, DONE was reported while the axis was still moving. The frame order is injected here:
 // the node's own Done frame of the first move, re-sent on the bus mid-way through the second.
 TEST_F(StoberDriveTest, StaleDoneTpdoAfterTheEdgeIsNotTheNewCommandsDone) {
-  Start();
-  Enable();
-  Referenced();
-  auto peer = transport::OpenCanChannel(bus_);
-  ASSERT_TRUE(peer.ok()) << peer.status();
-  const CommandInfo first = Move(MoveAbsolute{20, 500, 5000, 5000});
-  ASSERT_EQ(WaitFinal(first.id).state, CommandState::kDone);
-  AtRest(20);
+  std::unique_ptr<transport::CanChannel> peer;
+  ASSERT_NO_FATAL_FAILURE(AtRestWithPeer(20, peer));
   // The node's latest TPDO1 (refreshed every 100 ms) now says Done.
-  std::optional<transport::CanFrame> done_frame;
-  const auto deadline = std::chrono::steady_clock::now() + 5s;
-  while (!done_frame && std::chrono::steady_clock::now() < deadline) {
-    auto f = (*peer)->Receive(100ms);
-    ASSERT_TRUE(f.ok()) << f.status();
-    if (!f->has_value() || (*f)->id != 0x180u + kNode) continue;
-    auto s = DecodeStatusTpdo((*f)->payload());
-    if (s.ok() && s->done()) done_frame = **f;
-  }
+  const std::optional<transport::CanFrame> done_frame =
+      NextFrame(*peer, 0x180u + kNode, [](std::span<const uint8_t> p) {
+        auto s = DecodeStatusTpdo(p);
+        return s.ok() && s->done();
+      });
   ASSERT_TRUE(done_frame.has_value());
   for (const bool relative : {true, false}) {
     SCOPED_TRACE(relative ? "MoveRelative" : "MoveAbsolute");
@@ -257,8 +276,8 @@ TEST_F(StoberDriveTest, StaleDoneTpdoAfterTheEdgeIsNotTheNewCommandsDone) {
     ASSERT_EQ(second.state, CommandState::kActive) << second.message;
     const uint64_t withheld = drive_->counters().done_withheld;
     // The stale Done and its duplicate, after the edge and the node's I92 = 0 cycle.
-    ASSERT_TRUE((*peer)->Send(*done_frame).ok());
-    ASSERT_TRUE((*peer)->Send(*done_frame).ok());
+    ASSERT_TRUE(peer->Send(*done_frame).ok());
+    ASSERT_TRUE(peer->Send(*done_frame).ok());
     const CommandInfo final = WaitFinal(second.id);
     const double at = SimPosition();
     EXPECT_EQ(final.state, CommandState::kDone) << final.message;
@@ -273,30 +292,21 @@ TEST_F(StoberDriveTest, StaleDoneTpdoAfterTheEdgeIsNotTheNewCommandsDone) {
 // Done repeated by the TPDO1 event timer (3 frames, 200 ms) still ends the handle DONE, where the
 // node really stopped; it does not stay ACTIVE for ever.
 TEST_F(StoberDriveTest, DoneRepeatedByTheNodeEndsTheMoveWhenTpdo2NeverMatches) {
-  Start();
-  Enable();
-  Referenced();
-  auto peer = transport::OpenCanChannel(bus_);
-  ASSERT_TRUE(peer.ok()) << peer.status();
-  const CommandInfo first = Move(MoveAbsolute{10, 500, 5000, 5000});
-  ASSERT_EQ(WaitFinal(first.id).state, CommandState::kDone);
-  AtRest(10);
-  std::optional<transport::CanFrame> at_10;  // the node's TPDO2 at rest at 10 mm
-  const auto deadline = std::chrono::steady_clock::now() + 5s;
-  while (!at_10 && std::chrono::steady_clock::now() < deadline) {
-    auto f = (*peer)->Receive(100ms);
-    ASSERT_TRUE(f.ok()) << f.status();
-    if (!f->has_value() || (*f)->id != 0x280u + kNode) continue;
-    auto a = DecodeActualTpdo((*f)->payload());
-    if (a.ok() && std::abs(a->position - 10) < 1e-6) at_10 = **f;
-  }
+  std::unique_ptr<transport::CanChannel> peer;
+  ASSERT_NO_FATAL_FAILURE(AtRestWithPeer(10, peer));
+  // The node's TPDO2 at rest at 10 mm.
+  const std::optional<transport::CanFrame> at_10 =
+      NextFrame(*peer, 0x280u + kNode, [](std::span<const uint8_t> p) {
+        auto a = DecodeActualTpdo(p);
+        return a.ok() && std::abs(a->position - 10) < 1e-6;
+      });
   ASSERT_TRUE(at_10.has_value());
   const CommandInfo second = Move(MoveAbsolute{13, 500, 5000, 5000});
   ASSERT_EQ(WaitFinal(second.id).state, CommandState::kDone);
   AtRest(13);
   // The stale frame makes the gateway believe the axis stands at 10 (until the node's next
   // TPDO2, at most 100 ms later); the relative move starts from there.
-  ASSERT_TRUE((*peer)->Send(*at_10).ok());
+  ASSERT_TRUE(peer->Send(*at_10).ok());
   WaitUntil([](const DriveStatus& s) { return std::abs(s.position_mm - 10) < 1e-6; });
   const CommandInfo rel = Move(MoveRelative{4, 500, 5000, 5000});
   const CommandInfo final = WaitFinal(rel.id);
