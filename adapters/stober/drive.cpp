@@ -469,9 +469,9 @@ void StoberDrive::OnTpdo(const co::TpdoEvent& event) noexcept {
     ++counters_.actual_tpdos;
     // Decision 1485: the axis left the start position after the edge, so the node took it.
     bool moved_now = false;
-    if (tracker_ && tracker_->target && !endless_ && !tracker_->moved &&
+    if (tracker_ && tracker_->target && tracker_->start_position && !endless_ && !tracker_->moved &&
         actual_at_ >= tracker_->edge_sent + cycle_ &&
-        std::abs(actual_.position - tracker_->start_position) > position_window_ + kIncrement) {
+        std::abs(actual_.position - *tracker_->start_position) > position_window_ + kIncrement) {
       tracker_->moved = moved_now = true;
     }
     // A Done held back for want of this witness is decided now (decision 1484).
@@ -727,10 +727,10 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
 
 bool StoberDrive::ArrivedLocked(const Tracker& t) const {
   if (!t.target || endless_) return true;
-  // One increment of slack for the integer wire values.
   // A TPDO2 produced before the edge was applied says where the axis stood, not where this
   // command took it: it witnesses only a positioning that had nothing to do (already at the
-  // target to one increment, at rest), else a move shorter than I22 could pass.
+  // target to one increment, at rest), else a move shorter than I22 could pass. One increment
+  // of slack for the integer wire values.
   const bool after_edge = actual_at_ >= t.edge_sent + cycle_;
   const double window = after_edge ? position_window_ + kIncrement : kIncrement;
   return std::abs(actual_.position - *t.target) <= window &&
@@ -1108,7 +1108,7 @@ absl::StatusOr<CommandInfo> StoberDrive::StartMc(const McStart& start) {
   // base (the previous set position) is not on the bus.
   const bool standstill = status_ && status_->plc_state == kPlcStandstill &&
                           (status_->flags & status_bit::kStandstill) != 0;
-  t.start_position = actual_.position;
+  if (standstill) t.start_position = actual_.position;
   if (start.command == mc::kMoveAbsolute) {
     t.target = start.position;
   } else if (start.command == mc::kMoveRelative && standstill) {

@@ -120,7 +120,9 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
     // Positioning with a target the gateway knows (MoveAbsolute; MoveRelative from standstill):
     // its Done counts only with a TPDO2 after the edge at rest within I22 of it (decision 1484).
     std::optional<double> target;
-    double start_position = 0;  // TPDO2's position when the command started
+    // TPDO2's position when the command started at standstill (I89 = 2, I199 = 1); unset when
+    // the axis was moving, whose further motion would prove nothing about this edge.
+    std::optional<double> start_position;
     // A TPDO2 after the edge shows the axis more than I22 away from start_position: the node is
     // executing this command, whatever TPDO1s were lost (decision 1485).
     bool moved = false;
