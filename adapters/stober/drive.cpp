@@ -353,6 +353,7 @@ absl::Status StoberDrive::Configure() {
     command_mode_ = command_mode;
     end_velocity_ = end_velocity;
     status_ = status;
+    status_at_ = clock_.Now();
     actual_ = actual;
     actual_at_ = clock_.Now();
     position_window_ = position_window;
@@ -445,6 +446,7 @@ void StoberDrive::OnTpdo(const co::TpdoEvent& event) noexcept {
       return;
     }
     status_ = *s;
+    status_at_ = clock_.Now();
     ++status_seq_;
     ++counters_.status_tpdos;
     if (tracker_ && tracker_->done_withheld) {
@@ -727,6 +729,9 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
 
 bool StoberDrive::ArrivedLocked(const Tracker& t) const {
   if (!t.target || endless_) return true;
+  // The Done itself must come from a TPDO1 received after the edge: a status from before it,
+  // re-evaluated at a TPDO2 (every TPDO1 since lost), is the previous command's (decision 1485).
+  if (status_at_ < t.edge_sent + cycle_) return false;
   // A TPDO2 produced before the edge was applied says where the axis stood, not where this
   // command took it: it witnesses only a positioning that had nothing to do (already at the
   // target to one increment, at rest), else a move shorter than I22 could pass. One increment

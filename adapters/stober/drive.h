@@ -158,8 +158,9 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   DriveStatus BuildStatusLocked() const;
   void PublishLocked();
   void EvaluateTrackerLocked(TimePoint now);
-  // Decision 1484: the latest TPDO2, produced after `t`'s edge, shows the axis at rest (|606Ch|
-  // ≤ C40) within the node's position window I22 of t.target; true without a target.
+  // Decision 1484: the latest TPDO1 (with Done) and TPDO2 arrived after `t`'s edge and TPDO2
+  // shows the axis at rest (|606Ch| ≤ C40) within the node's position window I22 of t.target;
+  // true without a target.
   bool ArrivedLocked(const Tracker& t) const;
   // The buffered handle (decision 1210): true when it consumed the status (waiting, chain
   // error); false before its edge counts, or after it took over (tracker_ is then evaluated).
@@ -236,6 +237,7 @@ class StoberDrive final : public DriveBase, private canopen::NodeObserver {
   std::optional<MotionStatus> status_;
   ActualValues actual_;
   TimePoint actual_at_{};  // arrival of the TPDO2 in actual_
+  TimePoint status_at_{};  // arrival of the TPDO1 in status_
   // I22 position window and C40 velocity window, read at configuration (decision 1484).
   double position_window_ = 0;
   double velocity_window_ = 0;
