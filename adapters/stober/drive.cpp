@@ -677,7 +677,15 @@ void StoberDrive::EvaluateTrackerLocked(TimePoint now) {
   if (pending_ && EvaluatePendingLocked(now)) return;
   if (!tracker_) return;
   if (!tracker_->counted) {
-    if (now < tracker_->edge_sent + cycle_) return;  // produced before the edge was applied
+    if (now < tracker_->edge_sent + cycle_) {
+      // Produced before the edge was applied, or after it when the node's cycle began just
+      // after the RPDO arrived. Only the edge's forced-0 cycle (I92 = 0, I91 = 0) is kept from
+      // it: when the status at the edge showed Done, no later frame of the previous command
+      // can show I92 = 0, so it is this edge's; dropping it left the command ACTIVE for ever
+      // (CT-70, Halt at standstill: the forced-0 frame came 1.5 ms after the edge).
+      if (!s.done() && !s.error()) tracker_->progress.reset_seen = true;
+      return;
+    }
     tracker_->counted = true;
   }
   if (tracker_->moved) {
