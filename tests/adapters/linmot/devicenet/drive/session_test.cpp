@@ -1,6 +1,9 @@
 // DeviceNet session tests on the user-space CAN bus: registration checks, the gateway's own
 // duplicate MAC ID check, malformed / foreign / second-master frames (counted, dropped, the
 // session survives), gateway bus-off through an injected channel, one session per bus.
+// Every test declares its peers before the session: the session's I/O thread calls a registered
+// peer until the session stops (session.h), so the peer must outlive it (a peer destroyed first
+// was called after its end: UBSan vptr report in CI, stop 17).
 #include "adapters/linmot/devicenet/session.h"
 
 #include <gmock/gmock.h>
@@ -175,9 +178,9 @@ std::unique_ptr<LinMotDnServer> StartSim(uint16_t port, uint8_t mac = 5) {
 }
 
 TEST(DnSession, Register_ChecksNameTheField) {
+  RecordingPeer peer(6);
   auto session = Session::Open(OpenBus(UniquePort()), FastSession(), SteadyClock::Instance());
   ASSERT_TRUE(session.ok()) << session.status();
-  RecordingPeer peer(6);
   PeerOptions p = Peer(5);
   ASSERT_TRUE((*session)->Register(p, &peer).ok());
   auto again = (*session)->Register(p, &peer);
@@ -203,6 +206,7 @@ TEST(DnSession, Register_ChecksNameTheField) {
 // §5.7: our duplicate MAC ID requests (0x407 for MAC 0) twice, then online; an answer from a
 // node with our MAC ID keeps the gateway off the bus and is logged.
 TEST(DnSession, DuplicateMacCheck_TwoRequestsThenOnline_AnsweredMeansDuplicate) {
+  RecordingPeer peer(6);
   const uint16_t port = UniquePort();
   auto rival = OpenBus(port);
   auto session = Session::Open(OpenBus(port), FastSession(), SteadyClock::Instance());
@@ -215,7 +219,6 @@ TEST(DnSession, DuplicateMacCheck_TwoRequestsThenOnline_AnsweredMeansDuplicate) 
   EXPECT_EQ((*got)->data[0], 0x00);  // request, port 0
   ASSERT_TRUE(rival->Send(Frame(0x407, {0x80, 0x00, 0x00, 0x11, 0x22, 0x33, 0x44})).ok());
   // A registered drive makes "online" visible: its Allocate (42E) follows the passed check.
-  RecordingPeer peer(6);
   ASSERT_TRUE((*session)->Register(Peer(5), &peer).ok());
   bool allocate_seen = false;
   int checks_after = 0;
@@ -245,12 +248,12 @@ TEST(DnSession, DuplicateMacCheck_TwoRequestsThenOnline_AnsweredMeansDuplicate) 
 // STYLE §6 / issue 3: malformed frames, unexpected MAC IDs, a second master's traffic: counted,
 // dropped; the session and the drive's link survive.
 TEST(DnSession, BadAndForeignFrames_CountedDroppedSessionSurvives) {
+  RecordingPeer peer(6);
   const uint16_t port = UniquePort();
   auto sim = StartSim(port);
   ASSERT_TRUE(sim);
   auto session = Session::Open(OpenBus(port), FastSession(), SteadyClock::Instance());
   ASSERT_TRUE(session.ok());
-  RecordingPeer peer(6);
   auto id = (*session)->Register(Peer(5), &peer);
   ASSERT_TRUE(id.ok());
   ASSERT_TRUE(peer.Eventually([&] { return peer.link() == LinkState::kOnline; }));
@@ -284,6 +287,7 @@ TEST(DnSession, BadAndForeignFrames_CountedDroppedSessionSurvives) {
 // §10.2 "bus-off in the gateway": every drive offline; after the controller recovers, our own
 // duplicate MAC ID check and a full set-up (Release first: the drive may still hold the set).
 TEST(DnSession, GatewayBusOff_AllOfflineThenFullSetup) {
+  RecordingPeer peer(6);
   const uint16_t port = UniquePort();
   auto sim = StartSim(port);
   ASSERT_TRUE(sim);
@@ -291,7 +295,6 @@ TEST(DnSession, GatewayBusOff_AllOfflineThenFullSetup) {
   BusOffChannel* bus = channel.get();
   auto session = Session::Open(std::move(channel), FastSession(), SteadyClock::Instance());
   ASSERT_TRUE(session.ok());
-  RecordingPeer peer(6);
   auto id = (*session)->Register(Peer(5), &peer);
   ASSERT_TRUE(id.ok());
   ASSERT_TRUE(peer.Eventually([&] { return peer.link() == LinkState::kOnline; }));
@@ -307,6 +310,7 @@ TEST(DnSession, GatewayBusOff_AllOfflineThenFullSetup) {
 
 // One channel and one I/O thread per bus: two drives with their own MAC IDs share a session.
 TEST(DnSession, Pool_TwoDrivesOneBus_OneSession) {
+  RecordingPeer p5(6), p6(6);
   const uint16_t port = UniquePort();
   auto sim5 = StartSim(port, 5);
   auto sim6 = StartSim(port, 6);
@@ -320,7 +324,6 @@ TEST(DnSession, Pool_TwoDrivesOneBus_OneSession) {
   EXPECT_EQ(
       SessionPool::Instance().Acquire(Bus(port), other, SteadyClock::Instance()).status().code(),
       absl::StatusCode::kFailedPrecondition);
-  RecordingPeer p5(6), p6(6);
   ASSERT_TRUE((*a)->Register(Peer(5), &p5).ok());
   ASSERT_TRUE((*b)->Register(Peer(6), &p6).ok());
   EXPECT_TRUE(p5.Eventually(
@@ -333,12 +336,12 @@ TEST(DnSession, Pool_TwoDrivesOneBus_OneSession) {
 // §11.9: unregistering releases the set, so another master may allocate it (TC-02's second
 // half, seen from the gateway).
 TEST(DnSession, Unregister_ReleasesTheConnectionSet) {
+  RecordingPeer peer(6);
   const uint16_t port = UniquePort();
   auto sim = StartSim(port);
   ASSERT_TRUE(sim);
   auto session = Session::Open(OpenBus(port), FastSession(), SteadyClock::Instance());
   ASSERT_TRUE(session.ok());
-  RecordingPeer peer(6);
   auto id = (*session)->Register(Peer(5), &peer);
   ASSERT_TRUE(id.ok());
   ASSERT_TRUE(peer.Eventually([&] { return peer.link() == LinkState::kOnline; }));
@@ -413,6 +416,7 @@ std::vector<int> RepliesIn(std::vector<HealthPeer*> peers, std::chrono::millisec
 // the set-up back-off, and the two live ones keep their exchange rate (>= 80 % of their replies
 // in an equal window before the loss).
 TEST(DnSession, SharedBus_DeadDriveDownProbedAtBackoff_OthersKeepTheirRate) {
+  HealthPeer p5(6), p6(6), p7(6);
   const uint16_t port = UniquePort();
   auto sim5 = StartSim(port, 5);
   auto sim6 = StartSim(port, 6);
@@ -420,7 +424,6 @@ TEST(DnSession, SharedBus_DeadDriveDownProbedAtBackoff_OthersKeepTheirRate) {
   ASSERT_TRUE(sim5 && sim6 && sim7);
   auto session = Session::Open(Bus(port), FastSession(), SteadyClock::Instance());
   ASSERT_TRUE(session.ok()) << session.status();
-  HealthPeer p5(6), p6(6), p7(6);
   PeerOptions o7 = Peer(7);
   o7.retry_min = 100ms;
   o7.retry_max = 400ms;
