@@ -2,13 +2,13 @@
 #include "adapters/linmot/devicenet/catalogue.h"
 
 #include <cctype>
-#include <charconv>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "adapters/linmot/common/parameter_id.h"
 #include "adapters/linmot/devicenet/commands.h"
 #include "adapters/linmot/devicenet/factory.h"
 
@@ -72,22 +72,6 @@ ParameterDefinition FromSpec(const CommandSpec& set) {
   return d;
 }
 
-std::optional<uint32_t> ParseId(std::string_view t) {
-  int base = 10;
-  if (t.size() > 2 && t[0] == '0' && (t[1] == 'x' || t[1] == 'X')) {
-    t.remove_prefix(2);
-    base = 16;
-  } else if (t.size() > 1 && (t.back() == 'h' || t.back() == 'H')) {
-    t.remove_suffix(1);
-    base = 16;
-  }
-  uint32_t v = 0;
-  if (t.empty()) return std::nullopt;
-  const auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), v, base);
-  if (ec != std::errc() || p != t.data() + t.size()) return std::nullopt;
-  return v;
-}
-
 class LinMotDevicenetCatalogue final : public ParameterCatalogue {
  public:
   LinMotDevicenetCatalogue() {
@@ -99,7 +83,7 @@ class LinMotDevicenetCatalogue final : public ParameterCatalogue {
   const std::vector<ParameterDefinition>& Definitions() const override { return definitions_; }
 
   absl::StatusOr<ParameterDefinition> Find(std::string_view text) const override {
-    if (const std::optional<uint32_t> id = ParseId(text)) {
+    if (const std::optional<uint32_t> id = ParseParameterId(text)) {
       for (const ParameterDefinition& d : definitions_) {
         if (d.id == *id || d.id == *id + 1) return d;  // the Set ID or its Get half
       }
