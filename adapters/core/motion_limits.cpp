@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "adapters/core/status.h"
 
 namespace drivegw {
 
@@ -18,6 +19,17 @@ absl::Status CheckProfileLimit(const std::string& field, double value, double ax
                                               axis_limit, " (", axis_field, ")"));
   }
   return absl::OkStatus();
+}
+
+absl::Status CheckMoveProfile(const std::string& kind, double v, double a, double d,
+                              const AxisConfig& axis, const char* positive_note) {
+  DGW_RETURN_IF_ERROR(CheckProfileLimit(kind + ".velocity_mm_s", v, axis.max_velocity_mm_s,
+                                        "axis.max_velocity_mm_s", positive_note));
+  DGW_RETURN_IF_ERROR(CheckProfileLimit(kind + ".acceleration_mm_s2", a,
+                                        axis.max_acceleration_mm_s2, "axis.max_acceleration_mm_s2",
+                                        positive_note));
+  return CheckProfileLimit(kind + ".deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
+                           "axis.max_acceleration_mm_s2", positive_note);
 }
 
 absl::Status CheckAxisPosition(const std::string& field, double value, double target,

@@ -18,6 +18,13 @@ namespace drivegw {
 absl::Status CheckProfileLimit(const std::string& field, double value, double axis_limit,
                                const char* axis_field, const char* positive_note = "");
 
+// The profile of a move named `kind` ("move_absolute"): "<kind>.velocity_mm_s" against
+// axis.max_velocity_mm_s, then "<kind>.acceleration_mm_s2" and "<kind>.deceleration_mm_s2"
+// against axis.max_acceleration_mm_s2 (CheckProfileLimit each). `d` is the deceleration as the
+// drive uses it (a request's 0 already replaced by the acceleration, command.h).
+absl::Status CheckMoveProfile(const std::string& kind, double v, double a, double d,
+                              const AxisConfig& axis, const char* positive_note = "");
+
 // InvalidArgument for a `value` that is not finite; OutOfRange when `target` (the position the
 // command takes the axis to: `value` itself for an absolute move) lies outside
 // [axis.min_mm, axis.max_mm].

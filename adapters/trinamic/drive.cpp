@@ -631,14 +631,8 @@ absl::StatusOr<TrinamicDrive::Ramp> TrinamicDrive::RampFor(const std::string& ki
                                                            double acceleration_mm_s2,
                                                            double deceleration_mm_s2) const {
   const AxisConfig& axis = config().axis;
-  DGW_RETURN_IF_ERROR(CheckProfileLimit(kind + ".velocity_mm_s", velocity_mm_s,
-                                        axis.max_velocity_mm_s, "axis.max_velocity_mm_s"));
-  DGW_RETURN_IF_ERROR(CheckProfileLimit(kind + ".acceleration_mm_s2", acceleration_mm_s2,
-                                        axis.max_acceleration_mm_s2,
-                                        "axis.max_acceleration_mm_s2"));
-  double d = deceleration_mm_s2 == 0 ? acceleration_mm_s2 : deceleration_mm_s2;
-  DGW_RETURN_IF_ERROR(CheckProfileLimit(
-      kind + ".deceleration_mm_s2", d, axis.max_acceleration_mm_s2, "axis.max_acceleration_mm_s2"));
+  const double d = deceleration_mm_s2 == 0 ? acceleration_mm_s2 : deceleration_mm_s2;
+  DGW_RETURN_IF_ERROR(CheckMoveProfile(kind, velocity_mm_s, acceleration_mm_s2, d, axis));
   // §5.4: one amax for both ramp halves; the smaller of the two keeps both limits (1088).
   const double a = std::min(acceleration_mm_s2, d);
   const VelocityScale scale{shadow_.clkdiv(), shadow_.div()};

@@ -1063,12 +1063,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
   };
   auto limits = [&](const std::string& k, double v, double a, double d, Plan& p) -> absl::Status {
     if (d == 0) d = a;
-    DGW_RETURN_IF_ERROR(CheckProfileLimit(k + ".velocity_mm_s", v, axis.max_velocity_mm_s,
-                                          "axis.max_velocity_mm_s"));
-    DGW_RETURN_IF_ERROR(CheckProfileLimit(k + ".acceleration_mm_s2", a, axis.max_acceleration_mm_s2,
-                                          "axis.max_acceleration_mm_s2"));
-    DGW_RETURN_IF_ERROR(CheckProfileLimit(k + ".deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
-                                          "axis.max_acceleration_mm_s2"));
+    DGW_RETURN_IF_ERROR(CheckMoveProfile(k, v, a, d, axis));
     DGW_ASSIGN_OR_RETURN(p.speed, SpeedToDn(k + ".velocity_mm_s", v));
     const std::string acc_field = d < a ? k + ".deceleration_mm_s2" : k + ".acceleration_mm_s2";
     DGW_ASSIGN_OR_RETURN(p.acceleration, AccelerationToDn(acc_field, std::min(a, d)));

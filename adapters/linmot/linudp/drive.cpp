@@ -54,12 +54,9 @@ double PositionFromWire(int64_t v) { return static_cast<double>(v) / units::kPos
 
 std::string Hex16(uint16_t v) { return absl::StrFormat("0x%04X", v); }
 
-// Profile limits as every family checks them; LinUDP's message cites D-42 (the gateway never
-// sends a zero limit).
-absl::Status CheckUdpLimit(const std::string& field, double value, double axis_limit,
-                           const char* axis_field) {
-  return CheckProfileLimit(field, value, axis_limit, axis_field, " (linmot-mc.md D-42)");
-}
+// Profile limits are checked as in every family (motion_limits.h); LinUDP's "must be positive"
+// cites D-42: the gateway never sends a zero limit.
+constexpr char kD42Note[] = " (linmot-mc.md D-42)";
 
 // Time from rest over `distance` with a trapezoid or triangle (linmot-mc.md §6.1 step 5, u = 0).
 double TrapezoidSeconds(double distance, double vmax, double acc, double dec) {
@@ -900,12 +897,7 @@ absl::StatusOr<mc::McCommand> LinMotUdpDrive::BuildMotion(const MotionCommand& c
   auto profile = [&](const std::string& kind, double v, double a,
                      double d) -> absl::StatusOr<Profile> {
     if (d == 0) d = a;
-    DGW_RETURN_IF_ERROR(CheckUdpLimit(kind + ".velocity_mm_s", v, axis.max_velocity_mm_s,
-                                      "axis.max_velocity_mm_s"));
-    DGW_RETURN_IF_ERROR(CheckUdpLimit(kind + ".acceleration_mm_s2", a, axis.max_acceleration_mm_s2,
-                                      "axis.max_acceleration_mm_s2"));
-    DGW_RETURN_IF_ERROR(CheckUdpLimit(kind + ".deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
-                                      "axis.max_acceleration_mm_s2"));
+    DGW_RETURN_IF_ERROR(CheckMoveProfile(kind, v, a, d, axis, kD42Note));
     Profile p{0, 0, 0, v, a, d};
     DGW_ASSIGN_OR_RETURN(p.v, units::VelocityToWire(kind + ".velocity_mm_s", v));
     DGW_ASSIGN_OR_RETURN(p.a, units::AccelerationToWire(kind + ".acceleration_mm_s2", a));
@@ -956,8 +948,8 @@ absl::StatusOr<mc::McCommand> LinMotUdpDrive::BuildMotion(const MotionCommand& c
   // Stop has no acceleration to fall back on: 0 means the axis' maximal acceleration.
   const double d =
       stop.deceleration_mm_s2 == 0 ? axis.max_acceleration_mm_s2 : stop.deceleration_mm_s2;
-  DGW_RETURN_IF_ERROR(CheckUdpLimit("stop.deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
-                                    "axis.max_acceleration_mm_s2"));
+  DGW_RETURN_IF_ERROR(CheckProfileLimit("stop.deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
+                                        "axis.max_acceleration_mm_s2", kD42Note));
   DGW_ASSIGN_OR_RETURN(const uint32_t dec, units::AccelerationToWire("stop.deceleration_mm_s2", d));
   needs_in_target = false;  // a stop ends where it ends: Motion Active = 0 is enough (§4.4)
   planned = FromSeconds(std::fabs(v0) / d);
