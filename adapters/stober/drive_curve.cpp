@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/curve_run.h"
+#include "adapters/core/curve_runner.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
 #include "adapters/stober/drive.h"
@@ -29,10 +30,6 @@ constexpr auto kTick = 5ms;
 // Progress is republished when it moved this much (or reached 1): at most 200 updates per run.
 constexpr double kProgressStep = 0.005;
 
-absl::Status Annotated(const absl::Status& s, const std::string& prefix) {
-  return absl::Status(s.code(), absl::StrCat(prefix, s.message()));
-}
-
 }  // namespace
 
 class StoberDrive::CurveRunner {
@@ -47,22 +44,13 @@ class StoberDrive::CurveRunner {
         velocities_(std::move(velocities)),
         tolerance_mm_(tolerance_mm),
         lead_(lead) {}
-  ~CurveRunner() { Stop(); }
-  CurveRunner(const CurveRunner&) = delete;
-  CurveRunner& operator=(const CurveRunner&) = delete;
-
   void Start() {
-    thread_ = std::thread([this] { Run(); });
+    thread_.Start([this] { Run(); });
   }
   // Deactivate: leave at once; the drive detaches the stream (no call back into it).
-  void Stop() {
-    stop_ = true;
-    Join();
-  }
+  void Stop() { thread_.Stop(); }
   // The command already ended: the thread closes its stream and leaves by itself.
-  void Join() {
-    if (thread_.joinable()) thread_.join();
-  }
+  void Join() { thread_.Join(); }
   uint64_t id() const { return id_; }
 
  private:
@@ -81,7 +69,8 @@ class StoberDrive::CurveRunner {
   const double tolerance_mm_;
   const size_t lead_;
   std::atomic<bool> stop_{false};
-  std::thread thread_;
+  // Last: stopped (and joined) before the members its thread uses go.
+  RunnerThread thread_{[this] { stop_ = true; }};
 };
 
 void StoberDrive::CurveRunner::Run() {
@@ -151,29 +140,22 @@ absl::StatusOr<CommandInfo> StoberDrive::RunCurve(const Curve& curve,
   const std::string kind = "RunCurve";
   DGW_RETURN_IF_ERROR(RequireActive(kind.c_str()));
   const double tolerance = options.start_tolerance_mm;
-  if (!std::isfinite(tolerance) || tolerance < 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(Prefix(kind), "start_tolerance_mm: ", tolerance, " must be >= 0"));
-  }
+  DGW_RETURN_IF_ERROR(CheckStartTolerance(Prefix(kind), tolerance));
   auto samples = SampleCurve(curve);
-  if (!samples.ok()) return Annotated(samples.status(), Prefix(kind));
+  if (!samples.ok()) return PrefixedStatus(samples.status(), Prefix(kind));
   // One set point per SYNC (A291 = the SYNC period, decision 1205); the derived velocity is the
   // feed-forward I426 of each set point (L1729, L1805).
   const double period_s = ToSeconds(config().canopen.sync_period);
   auto positions = ResampleCurve(*samples, period_s);
-  if (!positions.ok()) return Annotated(positions.status(), Prefix(kind));
+  if (!positions.ok()) return PrefixedStatus(positions.status(), Prefix(kind));
   CurveSamples velocity_column = *samples;
   velocity_column.position_mm = samples->velocity_mm_s;
   auto velocities = ResampleCurve(velocity_column, period_s);
-  if (!velocities.ok()) return Annotated(velocities.status(), Prefix(kind));
+  if (!velocities.ok()) return PrefixedStatus(velocities.status(), Prefix(kind));
 
   // The previous run must have let go of its stream; one still running refuses (the axis moves,
   // and MC_CyclicPosition "should be avoided" from motion, L1799).
-  std::shared_ptr<CurveRunner> previous;
-  {
-    std::lock_guard lock(curve_mu_);
-    previous = curve_;
-  }
+  const std::shared_ptr<CurveRunner> previous = LoadRunner(curve_mu_, curve_);
   if (previous) {
     const auto info = GetCommand(previous->id());
     if (info && !IsFinal(info->state)) {
@@ -214,10 +196,7 @@ absl::StatusOr<CommandInfo> StoberDrive::RunCurve(const Curve& curve,
       std::clamp<size_t>(static_cast<size_t>(std::ceil(kLeadS / period_s)), kMinLead, kMaxLead);
   auto runner = std::make_shared<CurveRunner>(this, std::move(*stream), *std::move(positions),
                                               *std::move(velocities), tolerance, lead);
-  {
-    std::lock_guard lock(curve_mu_);
-    curve_ = runner;
-  }
+  StoreRunner(curve_mu_, curve_, runner);
   runner->Start();
   log::Info("stober_curve_run", log::Fields()
                                     .Add("drive", config().name)
@@ -228,11 +207,7 @@ absl::StatusOr<CommandInfo> StoberDrive::RunCurve(const Curve& curve,
 }
 
 void StoberDrive::StopCurveRunner() {
-  std::shared_ptr<CurveRunner> runner;
-  {
-    std::lock_guard lock(curve_mu_);
-    runner = curve_;
-  }
+  const std::shared_ptr<CurveRunner> runner = LoadRunner(curve_mu_, curve_);
   if (runner) runner->Stop();
 }
 

@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/curve_run.h"
+#include "adapters/core/curve_runner.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
 #include "adapters/trinamic/drive.h"
@@ -26,10 +27,6 @@ constexpr int kWordsPerLeg = 3;       // `$14`, `$26`, `$23`
 constexpr int kLineShare = 5;         // the legs' words use at most 1/5 of the line
 constexpr double kWordBits = 9 * 10;  // 9-byte word, 8N1 (§2.5)
 constexpr auto kWordGap = 2ms;        // spacing after every word (§2.5 [P], L303)
-
-absl::Status Annotated(const absl::Status& s, const std::string& prefix) {
-  return absl::Status(s.code(), absl::StrCat(prefix, s.message()));
-}
 
 }  // namespace
 
@@ -53,24 +50,11 @@ class TrinamicDrive::CurveRunner {
         tolerance_(tolerance),
         t0_(t0),
         last_word_(first_word) {}
-  ~CurveRunner() { Stop(); }
-  CurveRunner(const CurveRunner&) = delete;
-  CurveRunner& operator=(const CurveRunner&) = delete;
-
   void Start() {
-    thread_ = std::thread([this] { Run(); });
+    thread_.Start([this] { Run(); });
   }
-  void Stop() {
-    {
-      std::lock_guard lock(drive_->mu_);
-      stop_ = true;
-    }
-    drive_->cv_.notify_all();
-    Join();
-  }
-  void Join() {
-    if (thread_.joinable()) thread_.join();
-  }
+  void Stop() { thread_.Stop(); }
+  void Join() { thread_.Join(); }
   uint64_t id() const { return id_; }
 
  private:
@@ -104,7 +88,8 @@ class TrinamicDrive::CurveRunner {
   const SessionClock::time_point t0_;
   bool stop_ = false;                   // guarded by drive_->mu_
   SessionClock::time_point last_word_;  // samples sent after it reflect the newest leg
-  std::thread thread_;
+  // Last: stopped (and joined) before the members its thread uses go.
+  RunnerThread thread_{RunnerThread::SetUnder(drive_->mu_, drive_->cv_, stop_)};
 };
 
 bool TrinamicDrive::CurveRunner::SendLeg(size_t k) {
@@ -192,12 +177,9 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
   const std::string kind = "RunCurve";
   DGW_RETURN_IF_ERROR(RequireActive(kind.c_str()));
   const double tolerance_mm = options.start_tolerance_mm;
-  if (!std::isfinite(tolerance_mm) || tolerance_mm < 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(Prefix(kind), "start_tolerance_mm: ", tolerance_mm, " must be >= 0"));
-  }
+  DGW_RETURN_IF_ERROR(CheckStartTolerance(Prefix(kind), tolerance_mm));
   auto samples = SampleCurve(curve);
-  if (!samples.ok()) return Annotated(samples.status(), Prefix(kind));
+  if (!samples.ok()) return PrefixedStatus(samples.status(), Prefix(kind));
   const double duration_s =
       samples->time_step_s * static_cast<double>(samples->position_mm.size() - 1);
 
@@ -236,14 +218,14 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
     CurveRunner::Leg leg;
     leg.start_s = prev_end_s;
     auto target = TargetFor(field, seg.position_mm);
-    if (!target.ok()) return Annotated(target.status(), Prefix(kind));
+    if (!target.ok()) return PrefixedStatus(target.status(), Prefix(kind));
     leg.target = *target;
     auto prev_target = MmToMicrosteps(prev_mm, mpu_);
     leg.moves = !prev_target.ok() || *prev_target != leg.target;
     if (leg.moves) {
       const double v = std::min(seg.velocity_mm_s, axis.max_velocity_mm_s);
       auto vmax = MmPerSecondToVelocity(std::max(v, 0.0), scale, mpu_);
-      if (!vmax.ok()) return Annotated(vmax.status(), absl::StrCat(Prefix(kind), field, ": "));
+      if (!vmax.ok()) return PrefixedStatus(vmax.status(), absl::StrCat(Prefix(kind), field, ": "));
       leg.ramp = Ramp{std::max(1, *vmax), amax};
     }
     legs.push_back(leg);
@@ -252,11 +234,7 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
   }
 
   // A curve still running refuses (its motor moves; decision 1232), one that ended lets go.
-  std::shared_ptr<CurveRunner> previous;
-  {
-    std::lock_guard lock(curve_mu_);
-    previous = curve_;
-  }
+  const std::shared_ptr<CurveRunner> previous = LoadRunner(curve_mu_, curve_);
   if (previous) {
     const auto info = GetCommand(previous->id());
     if (info && !IsFinal(info->state)) {
@@ -319,10 +297,7 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
   if (!accepted.ok()) return accepted;
   auto runner = std::make_shared<CurveRunner>(this, info.id, std::move(legs), duration_s, tolerance,
                                               t0, first_word);
-  {
-    std::lock_guard lock(curve_mu_);
-    curve_ = runner;
-  }
+  StoreRunner(curve_mu_, curve_, runner);
   runner->Start();
   log::Info("trinamic_curve_run", log::Fields()
                                       .Add("drive", name_)
@@ -334,11 +309,7 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
 }
 
 void TrinamicDrive::StopCurveRunner() {
-  std::shared_ptr<CurveRunner> runner;
-  {
-    std::lock_guard lock(curve_mu_);
-    runner = curve_;
-  }
+  const std::shared_ptr<CurveRunner> runner = LoadRunner(curve_mu_, curve_);
   if (runner) runner->Stop();
 }
 

@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/curve_run.h"
+#include "adapters/core/curve_runner.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
 #include "adapters/linmot/devicenet/drive.h"
@@ -29,10 +30,6 @@ constexpr int kSlotShare = 5;
 constexpr int64_t kSpeedMin = 6;
 constexpr int64_t kSpeedMax = 24576;
 constexpr int64_t kAccelerationMax = 1536;
-
-absl::Status Annotated(const absl::Status& s, const std::string& prefix) {
-  return absl::Status(s.code(), absl::StrCat(prefix, s.message()));
-}
 
 // The leg's speed in 0x51 increments: rounded up (rounding down would make every leg late; the
 // target is absolute, so a leg can only arrive early and wait), at least the command's minimum,
@@ -76,24 +73,11 @@ class LinMotDnDrive::CurveRunner {
         connection_(connection),
         target_(legs_.front().target),
         accepted_gen_(accepted_gen) {}
-  ~CurveRunner() { Stop(); }
-  CurveRunner(const CurveRunner&) = delete;
-  CurveRunner& operator=(const CurveRunner&) = delete;
-
   void Start() {
-    thread_ = std::thread([this] { Run(); });
+    thread_.Start([this] { Run(); });
   }
-  void Stop() {
-    {
-      std::lock_guard lock(drive_->mu_);
-      stop_ = true;
-    }
-    drive_->cv_.notify_all();
-    Join();
-  }
-  void Join() {
-    if (thread_.joinable()) thread_.join();
-  }
+  void Stop() { thread_.Stop(); }
+  void Join() { thread_.Join(); }
 
  private:
   TimePoint At(double s) const { return t0_ + FromSeconds(s); }
@@ -135,7 +119,8 @@ class LinMotDnDrive::CurveRunner {
   bool stop_ = false;
   int16_t target_ = 0;         // the newest set-point the drive echoed
   uint64_t accepted_gen_ = 0;  // the poll generation that echoed it
-  std::thread thread_;
+  // Last: stopped (and joined) before the members its thread uses go.
+  RunnerThread thread_{RunnerThread::SetUnder(drive_->mu_, drive_->cv_, stop_)};
 };
 
 bool LinMotDnDrive::CurveRunner::CheckLocked() {
@@ -282,11 +267,7 @@ bool LinMotDnDrive::CurveOpenLocked() const {
 }
 
 void LinMotDnDrive::StopCurveRunner() {
-  std::shared_ptr<CurveRunner> runner;
-  {
-    std::lock_guard lock(curve_mu_);
-    runner = curve_;
-  }
+  const std::shared_ptr<CurveRunner> runner = LoadRunner(curve_mu_, curve_);
   if (runner) runner->Stop();
   std::lock_guard lock(mu_);
   if (curve_command_) UpdateCommand(*curve_command_, CommandState::kAborted, "drive deactivated");
@@ -299,12 +280,9 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
   DGW_RETURN_IF_ERROR(RequireActive("RunCurve"));
   const std::string prefix = absl::StrCat("drive '", name_, "': RunCurve: ");
   const double tolerance_mm = options.start_tolerance_mm;
-  if (!std::isfinite(tolerance_mm) || tolerance_mm < 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(prefix, "start_tolerance_mm: ", tolerance_mm, " must be >= 0"));
-  }
+  DGW_RETURN_IF_ERROR(CheckStartTolerance(prefix, tolerance_mm));
   auto samples = SampleCurve(curve);
-  if (!samples.ok()) return Annotated(samples.status(), prefix);
+  if (!samples.ok()) return PrefixedStatus(samples.status(), prefix);
   const double duration_s =
       samples->time_step_s * static_cast<double>(samples->position_mm.size() - 1);
 
@@ -323,7 +301,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
       AccelerationToDn("axis.max_acceleration_mm_s2",
                        std::min(axis.max_acceleration_mm_s2, static_cast<double>(kAccelerationMax) *
                                                                  kMmS2PerAccelerationIncrement));
-  if (!acceleration.ok()) return Annotated(acceleration.status(), prefix);
+  if (!acceleration.ok()) return PrefixedStatus(acceleration.status(), prefix);
   std::vector<CurveRunner::Leg> legs;
   double prev_end_s = 0;
   for (size_t k = 0; k < segments.size(); ++k) {
@@ -338,10 +316,10 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
     CurveRunner::Leg leg;
     leg.start_s = prev_end_s;
     auto target = PositionToDn(field + ".position_mm", seg.position_mm);
-    if (!target.ok()) return Annotated(target.status(), prefix);
+    if (!target.ok()) return PrefixedStatus(target.status(), prefix);
     leg.target = *target;
     auto speed = LegSpeed(field + ".velocity_mm_s", seg.velocity_mm_s, axis.max_velocity_mm_s);
-    if (!speed.ok()) return Annotated(speed.status(), prefix);
+    if (!speed.ok()) return PrefixedStatus(speed.status(), prefix);
     leg.speed = *speed;
     // Leg 0 always sends its set-point: from then on the drive's set-point is the curve's.
     leg.moves = k == 0 || leg.target != legs.back().target;
@@ -350,11 +328,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
   }
 
   // A curve still running refuses (Stop or Move first); one that ended lets go of its thread.
-  std::shared_ptr<CurveRunner> previous;
-  {
-    std::lock_guard lock(curve_mu_);
-    previous = curve_;
-  }
+  const std::shared_ptr<CurveRunner> previous = LoadRunner(curve_mu_, curve_);
   {
     std::lock_guard lock(mu_);
     if (CurveOpenLocked()) {
@@ -447,10 +421,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
                   .Add("min_leg_ms", min_leg_s * 1000)
                   .Add("acceleration", static_cast<uint64_t>(*acceleration)));
   }
-  {
-    std::lock_guard lock(curve_mu_);
-    curve_ = runner;
-  }
+  StoreRunner(curve_mu_, curve_, runner);
   runner->Start();
   std::optional<CommandInfo> result = GetCommand(id);
   if (!result) return absl::InternalError(prefix + "command lost");
