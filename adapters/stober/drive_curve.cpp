@@ -32,45 +32,38 @@ constexpr double kProgressStep = 0.005;
 
 }  // namespace
 
-class StoberDrive::CurveRunner {
+class StoberDrive::CurveRunner final : public CurveRunnerBase {
  public:
   CurveRunner(StoberDrive* drive, std::unique_ptr<CyclicStream> stream,
               std::vector<double> positions, std::vector<double> velocities, double tolerance_mm,
               size_t lead)
-      : drive_(drive),
+      : CurveRunnerBase(stream->command().id),
+        drive_(drive),
         stream_(std::move(stream)),
-        id_(stream_->command().id),
         positions_(std::move(positions)),
         velocities_(std::move(velocities)),
         tolerance_mm_(tolerance_mm),
         lead_(lead) {}
-  void Start() {
-    thread_.Start([this] { Run(); });
-  }
-  // Deactivate: leave at once; the drive detaches the stream (no call back into it).
-  void Stop() { thread_.Stop(); }
-  // The command already ended: the thread closes its stream and leaves by itself.
-  void Join() { thread_.Join(); }
-  uint64_t id() const { return id_; }
+  ~CurveRunner() override { Stop(); }
 
  private:
-  void Run();
+  void Run() override;
+  // Deactivate: leave at once; the drive detaches the stream (no call back into it). A run whose
+  // command ended closes its stream and leaves by itself (Join).
+  void RequestStop() override { stop_ = true; }
   // Ends the handle unless a newer command took the tracker already.
   void End(CommandState state, const std::string& message) {
     std::lock_guard lock(drive_->mu_);
-    if (drive_->tracker_ && drive_->tracker_->id == id_) drive_->EndTrackerLocked(state, message);
+    if (drive_->tracker_ && drive_->tracker_->id == id()) drive_->EndTrackerLocked(state, message);
   }
 
   StoberDrive* const drive_;
   const std::unique_ptr<CyclicStream> stream_;
-  const uint64_t id_;
   const std::vector<double> positions_;
   const std::vector<double> velocities_;
   const double tolerance_mm_;
   const size_t lead_;
   std::atomic<bool> stop_{false};
-  // Last: stopped (and joined) before the members its thread uses go.
-  RunnerThread thread_{[this] { stop_ = true; }};
 };
 
 void StoberDrive::CurveRunner::Run() {
@@ -82,7 +75,7 @@ void StoberDrive::CurveRunner::Run() {
   TimePoint settle_deadline{};
   uint64_t seq = drive_->GetStatus().sequence;
   while (!stop_) {
-    const auto info = drive_->GetCommand(id_);
+    const auto info = drive_->GetCommand(id());
     // Superseded by another motion command (ABORTED), cancelled by the motion core (I91, e.g.
     // event 78 after I423 without set points), fault or link loss (ERROR): stop streaming.
     if (!info || IsFinal(info->state)) break;
@@ -99,7 +92,7 @@ void StoberDrive::CurveRunner::Run() {
     const double progress =
         static_cast<double>(std::min<uint64_t>(st.sent, n)) / static_cast<double>(n);
     if (progress >= reported + kProgressStep || (progress >= 1 && reported < 1)) {
-      drive_->UpdateProgress(id_, progress);
+      drive_->UpdateProgress(id(), progress);
       reported = progress;
     }
     const DriveStatus s = drive_->GetStatus();
@@ -130,7 +123,7 @@ void StoberDrive::CurveRunner::Run() {
   if (auto closed = stream_->Close(); !closed.ok()) {
     log::Warn("stober_curve_close", log::Fields()
                                         .Add("drive", drive_->config().name)
-                                        .Add("command", id_)
+                                        .Add("command", id())
                                         .Add("error", std::string(closed.status().message())));
   }
 }
@@ -155,17 +148,9 @@ absl::StatusOr<CommandInfo> StoberDrive::RunCurve(const Curve& curve,
 
   // The previous run must have let go of its stream; one still running refuses (the axis moves,
   // and MC_CyclicPosition "should be avoided" from motion, L1799).
-  const std::shared_ptr<CurveRunner> previous = LoadRunner(curve_mu_, curve_);
-  if (previous) {
-    const auto info = GetCommand(previous->id());
-    if (info && !IsFinal(info->state)) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          Prefix(kind), "curve command ", info->id,
-          " is still running; Stop or Move first (a cyclic start from motion should be avoided, "
-          "stober-motion.md L1799)"));
-    }
-    previous->Join();
-  }
+  DGW_RETURN_IF_ERROR(JoinEndedRunner(
+      curve_mu_, curve_, [&](uint64_t id) { return GetCommand(id); }, Prefix(kind),
+      " (a cyclic start from motion should be avoided, stober-motion.md L1799)"));
 
   const double start = positions->front();
   auto at_start = [&]() -> absl::Status {  // under mu_, right before the edge
@@ -206,9 +191,6 @@ absl::StatusOr<CommandInfo> StoberDrive::RunCurve(const Curve& curve,
   return *GetCommand(id);
 }
 
-void StoberDrive::StopCurveRunner() {
-  const std::shared_ptr<CurveRunner> runner = LoadRunner(curve_mu_, curve_);
-  if (runner) runner->Stop();
-}
+void StoberDrive::StopCurveRunner() { StopRunner(curve_mu_, curve_); }
 
 }  // namespace drivegw::stober

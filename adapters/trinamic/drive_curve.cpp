@@ -31,7 +31,7 @@ constexpr auto kWordGap = 2ms;        // spacing after every word (§2.5 [P], L3
 }  // namespace
 
 // The legs after the first one, at their start times; then the wait for the end point.
-class TrinamicDrive::CurveRunner {
+class TrinamicDrive::CurveRunner final : public CurveRunnerBase {
  public:
   struct Leg {
     double start_s = 0;  // since the run's start
@@ -43,19 +43,14 @@ class TrinamicDrive::CurveRunner {
   // `first_word`: when leg 0's words had gone out (RunCurve sends them).
   CurveRunner(TrinamicDrive* drive, uint64_t id, std::vector<Leg> legs, double duration_s,
               int32_t tolerance, SessionClock::time_point t0, SessionClock::time_point first_word)
-      : drive_(drive),
-        id_(id),
+      : CurveRunnerBase(id),
+        drive_(drive),
         legs_(std::move(legs)),
         duration_s_(duration_s),
         tolerance_(tolerance),
         t0_(t0),
         last_word_(first_word) {}
-  void Start() {
-    thread_.Start([this] { Run(); });
-  }
-  void Stop() { thread_.Stop(); }
-  void Join() { thread_.Join(); }
-  uint64_t id() const { return id_; }
+  ~CurveRunner() override { Stop(); }
 
  private:
   SessionClock::time_point At(double s) const {
@@ -64,32 +59,30 @@ class TrinamicDrive::CurveRunner {
   }
   // With mu_ held: the handle is over (superseded, fault, link loss, reset) or the drive goes.
   bool OverLocked() const {
-    const auto info = drive_->GetCommand(id_);
+    const auto info = drive_->GetCommand(id());
     return stop_ || !info || IsFinal(info->state) || !drive_->tracker_ ||
-           drive_->tracker_->id != id_;
+           drive_->tracker_->id != id();
   }
   // With mu_ held: ends the handle (progress 1 first when it is DONE).
   void EndLocked(CommandState state, const std::string& message) {
     if (OverLocked()) return;
     drive_->tracker_.reset();
     drive_->PublishLocked();
-    if (state == CommandState::kDone) drive_->UpdateProgress(id_, 1);
-    drive_->UpdateCommand(id_, state, message);
+    if (state == CommandState::kDone) drive_->UpdateProgress(id(), 1);
+    drive_->UpdateCommand(id(), state, message);
   }
-  void Run();
+  void Run() override;
+  void RequestStop() override { SetStopFlag(drive_->mu_, drive_->cv_, stop_); }
   // Sends leg k under op_mu_ (after any Move that got there first); false when the run is over.
   bool SendLeg(size_t k);
 
   TrinamicDrive* const drive_;
-  const uint64_t id_;
   const std::vector<Leg> legs_;
   const double duration_s_;
   const int32_t tolerance_;  // microsteps
   const SessionClock::time_point t0_;
   bool stop_ = false;                   // guarded by drive_->mu_
   SessionClock::time_point last_word_;  // samples sent after it reflect the newest leg
-  // Last: stopped (and joined) before the members its thread uses go.
-  RunnerThread thread_{RunnerThread::SetUnder(drive_->mu_, drive_->cv_, stop_)};
 };
 
 bool TrinamicDrive::CurveRunner::SendLeg(size_t k) {
@@ -127,7 +120,7 @@ void TrinamicDrive::CurveRunner::Run() {
       while (!OverLocked() && SessionClock::now() < due) drive_->cv_.wait_until(lock, due);
       if (OverLocked()) return;
     }
-    drive_->UpdateProgress(id_, static_cast<double>(k) / static_cast<double>(legs_.size()));
+    drive_->UpdateProgress(id(), static_cast<double>(k) / static_cast<double>(legs_.size()));
     if (!SendLeg(k)) return;
     drive_->PollSoon();
   }
@@ -234,15 +227,8 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
   }
 
   // A curve still running refuses (its motor moves; decision 1232), one that ended lets go.
-  const std::shared_ptr<CurveRunner> previous = LoadRunner(curve_mu_, curve_);
-  if (previous) {
-    const auto info = GetCommand(previous->id());
-    if (info && !IsFinal(info->state)) {
-      return absl::FailedPreconditionError(absl::StrCat(Prefix(kind), "curve command ", info->id,
-                                                        " is still running; Stop or Move first"));
-    }
-    previous->Join();
-  }
+  DGW_RETURN_IF_ERROR(JoinEndedRunner(
+      curve_mu_, curve_, [&](uint64_t id) { return GetCommand(id); }, Prefix(kind)));
 
   std::lock_guard op(op_mu_);
   const double start_mm = samples->position_mm.front();
@@ -308,9 +294,6 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
   return *GetCommand(info.id);
 }
 
-void TrinamicDrive::StopCurveRunner() {
-  const std::shared_ptr<CurveRunner> runner = LoadRunner(curve_mu_, curve_);
-  if (runner) runner->Stop();
-}
+void TrinamicDrive::StopCurveRunner() { StopRunner(curve_mu_, curve_); }
 
 }  // namespace drivegw::trinamic

@@ -53,7 +53,7 @@ absl::StatusOr<uint16_t> LegSpeed(const std::string& field, double v_mm_s, doubl
 }  // namespace
 
 // The legs after the first one, at their start times; then the wait for the end point.
-class LinMotDnDrive::CurveRunner {
+class LinMotDnDrive::CurveRunner final : public CurveRunnerBase {
  public:
   struct Leg {
     double start_s = 0;  // since t0
@@ -64,8 +64,8 @@ class LinMotDnDrive::CurveRunner {
 
   CurveRunner(LinMotDnDrive* drive, uint64_t id, std::vector<Leg> legs, double duration_s,
               double tolerance_mm, TimePoint t0, uint64_t accepted_gen, uint64_t connection)
-      : drive_(drive),
-        id_(id),
+      : CurveRunnerBase(id),
+        drive_(drive),
         legs_(std::move(legs)),
         duration_s_(duration_s),
         tolerance_mm_(tolerance_mm),
@@ -73,11 +73,7 @@ class LinMotDnDrive::CurveRunner {
         connection_(connection),
         target_(legs_.front().target),
         accepted_gen_(accepted_gen) {}
-  void Start() {
-    thread_.Start([this] { Run(); });
-  }
-  void Stop() { thread_.Stop(); }
-  void Join() { thread_.Join(); }
+  ~CurveRunner() override { Stop(); }
 
  private:
   TimePoint At(double s) const { return t0_ + FromSeconds(s); }
@@ -85,8 +81,8 @@ class LinMotDnDrive::CurveRunner {
 
   // With mu_ held: the handle is over (superseded, ended) or the drive goes.
   bool OverLocked() const {
-    if (stop_ || !drive_->active_ || drive_->curve_command_ != id_) return true;
-    const auto info = drive_->GetCommand(id_);
+    if (stop_ || !drive_->active_ || drive_->curve_command_ != id()) return true;
+    const auto info = drive_->GetCommand(id());
     return !info || IsFinal(info->state);
   }
   // With mu_ held: ends the handle (progress 1 first when it is DONE).
@@ -94,11 +90,11 @@ class LinMotDnDrive::CurveRunner {
     if (OverLocked()) return;
     drive_->curve_command_.reset();
     drive_->PublishLocked(true);  // no longer MOVING for the curve
-    if (state == CommandState::kDone) drive_->UpdateProgress(id_, 1);
-    drive_->UpdateCommand(id_, state, message);
+    if (state == CommandState::kDone) drive_->UpdateProgress(id(), 1);
+    drive_->UpdateCommand(id(), state, message);
     log::Debug("devicenet_curve_end", log::Fields()
                                           .Add("drive", drive_->name_)
-                                          .Add("command", id_)
+                                          .Add("command", id())
                                           .Add("state", ToString(state))
                                           .Add("message", message));
   }
@@ -106,10 +102,10 @@ class LinMotDnDrive::CurveRunner {
   bool CheckLocked();
   // Sends leg k under op_mu_ (after any Move that got there first); false when the run is over.
   bool SendLeg(size_t k);
-  void Run();
+  void Run() override;
+  void RequestStop() override { SetStopFlag(drive_->mu_, drive_->cv_, stop_); }
 
   LinMotDnDrive* const drive_;
-  const uint64_t id_;
   const std::vector<Leg> legs_;
   const double duration_s_;
   const double tolerance_mm_;
@@ -119,8 +115,6 @@ class LinMotDnDrive::CurveRunner {
   bool stop_ = false;
   int16_t target_ = 0;         // the newest set-point the drive echoed
   uint64_t accepted_gen_ = 0;  // the poll generation that echoed it
-  // Last: stopped (and joined) before the members its thread uses go.
-  RunnerThread thread_{RunnerThread::SetUnder(drive_->mu_, drive_->cv_, stop_)};
 };
 
 bool LinMotDnDrive::CurveRunner::CheckLocked() {
@@ -213,7 +207,7 @@ void LinMotDnDrive::CurveRunner::Run() {
         d.cv_.wait_for(lock, due - now);
       }
     }
-    d.UpdateProgress(id_, static_cast<double>(k) / static_cast<double>(legs()));
+    d.UpdateProgress(id(), static_cast<double>(k) / static_cast<double>(legs()));
     if (!SendLeg(k)) return;
   }
   // The end: In Position (the drive's window around the last set-point, §7.4) in a response
@@ -267,8 +261,7 @@ bool LinMotDnDrive::CurveOpenLocked() const {
 }
 
 void LinMotDnDrive::StopCurveRunner() {
-  const std::shared_ptr<CurveRunner> runner = LoadRunner(curve_mu_, curve_);
-  if (runner) runner->Stop();
+  StopRunner(curve_mu_, curve_);
   std::lock_guard lock(mu_);
   if (curve_command_) UpdateCommand(*curve_command_, CommandState::kAborted, "drive deactivated");
   curve_command_.reset();
