@@ -195,6 +195,26 @@ absl::Status ViolationsStatus(const std::vector<v1::CurveViolation>& violations,
   return s;
 }
 
+namespace {
+
+// The set a Create or Update request carries, named `name`, its shape checked (no axis yet):
+// errors name the "curve_set.curves[i]..." field.
+absl::StatusOr<CurveSet> RequestedCurveSet(const std::string& name, const v1::CurveSet& in) {
+  CurveSet set;
+  set.name = name;
+  set.description = in.description();
+  for (int i = 0; i < in.curves_size(); ++i) {
+    auto curve = CurveFromProto(absl::StrCat("curve_set.curves[", i, "]"), in.curves(i));
+    if (!curve.ok()) return curve.status();
+    set.curves.push_back(*std::move(curve));
+  }
+  DGW_RETURN_IF_ERROR(ViolationsStatus(CurveSetViolations(set.curves, nullptr, "curve_set."),
+                                       absl::StatusCode::kInvalidArgument));
+  return set;
+}
+
+}  // namespace
+
 CurveSetServiceCore::CurveSetServiceCore(storage::CurveSetRepo& repo,
                                          std::vector<std::shared_ptr<Drive>> drives,
                                          storage::AuditLog* audit, const LeaseManager* leases)
@@ -260,20 +280,9 @@ absl::StatusOr<v1::CurveSet> CurveSetServiceCore::CreateCurveSet(const v1::Creat
   };
   auto name = CurveSetId("curve_set.name", r.curve_set().name());
   if (!name.ok()) return fail(name.status());
-  CurveSet set;
-  set.name = *name;
-  set.description = r.curve_set().description();
-  for (int i = 0; i < r.curve_set().curves_size(); ++i) {
-    auto curve = CurveFromProto(absl::StrCat("curve_set.curves[", i, "]"), r.curve_set().curves(i));
-    if (!curve.ok()) return fail(curve.status());
-    set.curves.push_back(*std::move(curve));
-  }
-  if (auto s = ViolationsStatus(CurveSetViolations(set.curves, nullptr, "curve_set."),
-                                absl::StatusCode::kInvalidArgument);
-      !s.ok()) {
-    return fail(s);
-  }
-  auto stored = repo_.Create(set, c.principal, r.comment());
+  auto set = RequestedCurveSet(*name, r.curve_set());
+  if (!set.ok()) return fail(set.status());
+  auto stored = repo_.Create(*set, c.principal, r.comment());
   if (!stored.ok()) return fail(stored.status());
   v1::CurveSet out = CurveSetToProto(*stored);
   WriteAudit(audit_, c, "", "CreateCurveSet", BeforeAfterJson(nullptr, &out), absl::OkStatus());
@@ -314,22 +323,11 @@ absl::StatusOr<v1::CurveSet> CurveSetServiceCore::UpdateCurveSet(const v1::Updat
   auto name = CurveSetId("curve_set.name", r.curve_set().name());
   if (!name.ok()) return fail(name.status());
   if (r.etag().empty()) return fail(FieldError("etag", "is required (updates are conditional)"));
-  CurveSet set;
-  set.name = *name;
-  set.description = r.curve_set().description();
-  for (int i = 0; i < r.curve_set().curves_size(); ++i) {
-    auto curve = CurveFromProto(absl::StrCat("curve_set.curves[", i, "]"), r.curve_set().curves(i));
-    if (!curve.ok()) return fail(curve.status());
-    set.curves.push_back(*std::move(curve));
-  }
-  if (auto s = ViolationsStatus(CurveSetViolations(set.curves, nullptr, "curve_set."),
-                                absl::StatusCode::kInvalidArgument);
-      !s.ok()) {
-    return fail(s);
-  }
+  auto set = RequestedCurveSet(*name, r.curve_set());
+  if (!set.ok()) return fail(set.status());
   auto before = repo_.Get(*name);
   if (!before.ok()) return fail(before.status());
-  auto stored = repo_.Update(set, r.etag(), c.principal, r.comment());
+  auto stored = repo_.Update(*set, r.etag(), c.principal, r.comment());
   if (!stored.ok()) return fail(EtagDetail(stored.status(), SetResource(kSetPrefix, *name)));
   const v1::CurveSet b = CurveSetToProto(*before);
   v1::CurveSet out = CurveSetToProto(*stored);

@@ -16,6 +16,7 @@
 #include "adapters/core/motion_limits.h"
 #include "adapters/core/status.h"
 #include "adapters/core/units.h"
+#include "adapters/linmot/common/command_status.h"
 #include "adapters/linmot/common/session_peer.h"
 #include "adapters/linmot/common/status_publish.h"
 
@@ -696,20 +697,9 @@ absl::Status LinMotDnDrive::WaitOnlineLocked(std::unique_lock<std::mutex>& lock,
 
 absl::Status LinMotDnDrive::WaitFailure(Wait w, const std::string& operation,
                                         const std::string& detail) const {
-  const std::string where = absl::StrCat("drive '", name_, "': ", operation, ": ");
-  switch (w) {
-    case Wait::kReached:
-      return absl::OkStatus();
-    case Wait::kDeadline:
-      return absl::DeadlineExceededError(absl::StrCat(where, detail));
-    case Wait::kOffline:
-      return absl::UnavailableError(absl::StrCat(where, "link to ", endpoint(), " lost",
-                                                 link_reason_.empty() ? "" : " (", link_reason_,
-                                                 link_reason_.empty() ? "" : ")"));
-    case Wait::kInactive:
-      return absl::FailedPreconditionError(absl::StrCat(where, "drive deactivated"));
-  }
-  return absl::InternalError(where);
+  return WaitPeerStatus(
+      w, absl::StrCat("drive '", name_, "': ", operation, ": "), detail, endpoint(),
+      [&] { return link_reason_.empty() ? std::string() : absl::StrCat(" (", link_reason_, ")"); });
 }
 
 absl::StatusOr<CommandInfo> LinMotDnDrive::Finish(uint64_t id, const absl::Status& status) {
@@ -1011,12 +1001,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::Home() {
     UpdateCommand(cmd.id, CommandState::kError, std::string(s.message()));
     return s;
   }
-  std::optional<CommandInfo> info = GetCommand(cmd.id);
-  if (!info) return absl::InternalError("Home: command lost");
-  if (info->state == CommandState::kError || info->state == CommandState::kAborted) {
-    return absl::AbortedError(absl::StrCat("drive '", name_, "': Home: ", info->message));
-  }
-  return *info;
+  return StartedHome(GetCommand(cmd.id), absl::StrCat("drive '", name_, "': Home: "));
 }
 
 // ---------------------------------------------------------------------------------------------
