@@ -1,7 +1,6 @@
 // LinMot DeviceNet catalogue (decision 009), driven by the command table (commands.h, §8.4).
 #include "adapters/linmot/devicenet/catalogue.h"
 
-#include <cctype>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,17 +24,6 @@ bool IsParameterSet(uint8_t id) {
 }
 
 std::string IdText(uint32_t id) { return absl::StrFormat("0x%02X", id); }
-
-bool EqualsIgnoreCase(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (size_t i = 0; i < a.size(); ++i) {
-    if (std::tolower(static_cast<unsigned char>(a[i])) !=
-        std::tolower(static_cast<unsigned char>(b[i]))) {
-      return false;
-    }
-  }
-  return true;
-}
 
 ParameterDefinition FromSpec(const CommandSpec& set) {
   const ValueSpec& v = set.request;
@@ -91,9 +79,9 @@ class LinMotDevicenetCatalogue final : public ParameterCatalogue {
       for (const ParameterDefinition& d : definitions_) {
         const CommandSpec* set = FindCommand(static_cast<uint8_t>(d.id));
         const CommandSpec* get = FindCommand(static_cast<uint8_t>(d.id - 1));
-        if (EqualsIgnoreCase(text, set->key()) || EqualsIgnoreCase(text, set->name) ||
+        if (NameEqualsIgnoreCase(text, set->key()) || NameEqualsIgnoreCase(text, set->name) ||
             (get != nullptr &&
-             (EqualsIgnoreCase(text, get->key()) || EqualsIgnoreCase(text, get->name)))) {
+             (NameEqualsIgnoreCase(text, get->key()) || NameEqualsIgnoreCase(text, get->name)))) {
           return d;
         }
       }
