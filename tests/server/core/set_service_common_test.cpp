@@ -61,21 +61,24 @@ TEST(SetServiceCommonTest, EmitPage_FirstLimitRowsAndTokenOnlyWhenMoreCame) {
   EXPECT_THAT(out, ElementsAre("a", "b"));
 }
 
+// "type/subject/description" of the single ETAG violation `s` carries, "" without a detail.
+std::string EtagViolation(const absl::Status& s) {
+  auto payload = s.GetPayload("type.googleapis.com/google.rpc.PreconditionFailure");
+  google::rpc::PreconditionFailure pf;
+  if (!payload || !pf.ParseFromString(std::string(*payload)) || pf.violations_size() != 1)
+    return "";
+  const auto& v = pf.violations(0);
+  return absl::StrCat(v.type(), "/", v.subject(), "/", v.description());
+}
+
 TEST(SetServiceCommonTest, EtagDetail_OnlyForStaleEtags) {
   const absl::Status stale =
       EtagDetail(absl::FailedPreconditionError("etag mismatch"), "curveSets/demo");
-  auto payload = stale.GetPayload("type.googleapis.com/google.rpc.PreconditionFailure");
-  ASSERT_TRUE(payload.has_value());
-  google::rpc::PreconditionFailure pf;
-  ASSERT_TRUE(pf.ParseFromString(std::string(*payload)));
-  ASSERT_EQ(pf.violations_size(), 1);
-  EXPECT_EQ(pf.violations(0).type(), "ETAG");
-  EXPECT_EQ(pf.violations(0).subject(), "curveSets/demo");
-  EXPECT_EQ(pf.violations(0).description(), "etag mismatch");
-  EXPECT_FALSE(EtagDetail(absl::FailedPreconditionError("in use"), "curveSets/demo")
-                   .GetPayload("type.googleapis.com/google.rpc.PreconditionFailure")
-                   .has_value());
+  EXPECT_EQ(stale.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(EtagViolation(stale), "ETAG/curveSets/demo/etag mismatch");
+  EXPECT_EQ(EtagViolation(EtagDetail(absl::FailedPreconditionError("in use"), "curveSets/d")), "");
   EXPECT_EQ(EtagDetail(absl::NotFoundError("etag"), "x").code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(EtagViolation(EtagDetail(absl::NotFoundError("etag"), "x")), "");
 }
 
 TEST(SetServiceCommonTest, BeforeAfterJson_EitherSideMayBeAbsent) {
@@ -160,7 +163,7 @@ TEST(SetServiceCommonTest, DeleteSet_EtagRequiredStaleDetailedAuditHasTheOldSet)
   const absl::Status stale =
       DeleteSet(repo, std::string("demo"), "e0", "curveSets/", to_proto, json);
   EXPECT_EQ(stale.code(), absl::StatusCode::kFailedPrecondition);
-  EXPECT_TRUE(stale.GetPayload("type.googleapis.com/google.rpc.PreconditionFailure").has_value());
+  EXPECT_EQ(EtagViolation(stale), "ETAG/curveSets/demo/etag is stale");
   EXPECT_EQ(json, "{\"before\":{\"name\":\"demo\",\"version\":3}}");
   EXPECT_TRUE(DeleteSet(repo, std::string("demo"), "e1", "curveSets/", to_proto, json).ok());
   EXPECT_THAT(repo.deleted, ElementsAre("demo"));
