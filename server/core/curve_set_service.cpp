@@ -3,6 +3,7 @@
 #include "server/core/curve_set_service.h"
 
 #include <cmath>
+#include <optional>
 #include <set>
 #include <utility>
 
@@ -272,21 +273,41 @@ absl::StatusOr<Curve> CurveSetServiceCore::CurveAt(const std::string& name,
                                           "' (curves: ", known.empty() ? "none" : known, ")"));
 }
 
-absl::StatusOr<v1::CurveSet> CurveSetServiceCore::CreateCurveSet(const v1::CreateCurveSetRequest& r,
-                                                                 const CallContext& c) {
+absl::StatusOr<v1::CurveSet> CurveSetServiceCore::StoreCurveSet(
+    const char* action, const google::protobuf::Message& request, const v1::CurveSet& in,
+    bool update, const std::string& etag, const std::string& comment, const CallContext& c) {
   auto fail = [&](absl::Status s) {
-    WriteAudit(audit_, c, "", "CreateCurveSet", ToAuditJson(r), s);
+    WriteAudit(audit_, c, "", action, ToAuditJson(request), s);
     return s;
   };
-  auto name = CurveSetId("curve_set.name", r.curve_set().name());
+  auto name = CurveSetId("curve_set.name", in.name());
   if (!name.ok()) return fail(name.status());
-  auto set = RequestedCurveSet(*name, r.curve_set());
+  if (update && etag.empty()) {
+    return fail(FieldError("etag", "is required (updates are conditional)"));
+  }
+  auto set = RequestedCurveSet(*name, in);
   if (!set.ok()) return fail(set.status());
-  auto stored = repo_.Create(*set, c.principal, r.comment());
-  if (!stored.ok()) return fail(stored.status());
+  std::optional<v1::CurveSet> before;
+  absl::StatusOr<storage::StoredCurveSet> stored;
+  if (update) {
+    auto old = repo_.Get(*name);
+    if (!old.ok()) return fail(old.status());
+    before = CurveSetToProto(*old);
+    stored = repo_.Update(*set, etag, c.principal, comment);
+    if (!stored.ok()) return fail(EtagDetail(stored.status(), SetResource(kSetPrefix, *name)));
+  } else {
+    stored = repo_.Create(*set, c.principal, comment);
+    if (!stored.ok()) return fail(stored.status());
+  }
   v1::CurveSet out = CurveSetToProto(*stored);
-  WriteAudit(audit_, c, "", "CreateCurveSet", BeforeAfterJson(nullptr, &out), absl::OkStatus());
+  WriteAudit(audit_, c, "", action, BeforeAfterJson(before ? &*before : nullptr, &out),
+             absl::OkStatus());
   return out;
+}
+
+absl::StatusOr<v1::CurveSet> CurveSetServiceCore::CreateCurveSet(const v1::CreateCurveSetRequest& r,
+                                                                 const CallContext& c) {
+  return StoreCurveSet("CreateCurveSet", r, r.curve_set(), false, "", r.comment(), c);
 }
 
 absl::StatusOr<v1::CurveSet> CurveSetServiceCore::GetCurveSet(const v1::GetCurveSetRequest& r,
@@ -316,23 +337,7 @@ absl::StatusOr<v1::ListCurveSetsResponse> CurveSetServiceCore::ListCurveSets(
 
 absl::StatusOr<v1::CurveSet> CurveSetServiceCore::UpdateCurveSet(const v1::UpdateCurveSetRequest& r,
                                                                  const CallContext& c) {
-  auto fail = [&](absl::Status s) {
-    WriteAudit(audit_, c, "", "UpdateCurveSet", ToAuditJson(r), s);
-    return s;
-  };
-  auto name = CurveSetId("curve_set.name", r.curve_set().name());
-  if (!name.ok()) return fail(name.status());
-  if (r.etag().empty()) return fail(FieldError("etag", "is required (updates are conditional)"));
-  auto set = RequestedCurveSet(*name, r.curve_set());
-  if (!set.ok()) return fail(set.status());
-  auto before = repo_.Get(*name);
-  if (!before.ok()) return fail(before.status());
-  auto stored = repo_.Update(*set, r.etag(), c.principal, r.comment());
-  if (!stored.ok()) return fail(EtagDetail(stored.status(), SetResource(kSetPrefix, *name)));
-  const v1::CurveSet b = CurveSetToProto(*before);
-  v1::CurveSet out = CurveSetToProto(*stored);
-  WriteAudit(audit_, c, "", "UpdateCurveSet", BeforeAfterJson(&b, &out), absl::OkStatus());
-  return out;
+  return StoreCurveSet("UpdateCurveSet", r, r.curve_set(), true, r.etag(), r.comment(), c);
 }
 
 absl::StatusOr<v1::DeleteCurveSetResponse> CurveSetServiceCore::DeleteCurveSet(
