@@ -4,6 +4,7 @@
 // written to a drive. Values are integers as Drive::Read/WriteParameter carry them.
 #pragma once
 
+#include <cctype>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -18,13 +19,13 @@
 namespace drivegw {
 
 struct ParameterDefinition {
-  uint32_t id = 0;     // ParameterRef.id of the family
-  std::string name;    // the family's own name: "0x14BE" (LinMot UPID), "$14.vmax" (Trinamic),
-                       // "I10" (STOBER), "0x51" (DeviceNet command), ...
-  std::string title;   // short human text: "maximal velocity"
-  std::string type;    // wire type: "u8", "i16", "u32", "bool", "bits16", ...
-  std::string unit;    // "mm/s", "0.001 u", "velocity register", "" if none
-  int64_t min = 0;     // inclusive range of the integer value
+  uint32_t id = 0;    // ParameterRef.id of the family
+  std::string name;   // the family's own name: "0x14BE" (LinMot UPID), "$14.vmax" (Trinamic),
+                      // "I10" (STOBER), "0x51" (DeviceNet command), ...
+  std::string title;  // short human text: "maximal velocity"
+  std::string type;   // wire type: "u8", "i16", "u32", "bool", "bits16", ...
+  std::string unit;   // "mm/s", "0.001 u", "velocity register", "" if none
+  int64_t min = 0;    // inclusive range of the integer value
   int64_t max = 0;
   std::optional<int64_t> default_value;
   bool writable = true;
@@ -47,9 +48,9 @@ class ParameterCatalogue {
   // catalogue can know them); InvalidArgument naming the parameter and the limit.
   virtual absl::Status Validate(const ParameterDefinition& definition, int64_t value) const {
     if (value < definition.min || value > definition.max) {
-      return absl::InvalidArgumentError(
-          definition.name + ": " + std::to_string(value) + " is outside " +
-          std::to_string(definition.min) + ".." + std::to_string(definition.max));
+      return absl::InvalidArgumentError(definition.name + ": " + std::to_string(value) +
+                                        " is outside " + std::to_string(definition.min) + ".." +
+                                        std::to_string(definition.max));
     }
     if (!definition.writable) {
       return absl::InvalidArgumentError(definition.name + ": read-only");
@@ -57,6 +58,19 @@ class ParameterCatalogue {
     return absl::OkStatus();
   }
 };
+
+// Families match parameter names typed by a user without regard to ASCII case ("$14.VMAX" finds
+// "$14.vmax", "SET_FILTER_MAX_SPEED" the DeviceNet command); other bytes must be equal.
+inline bool NameEqualsIgnoreCase(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (std::tolower(static_cast<unsigned char>(a[i])) !=
+        std::tolower(static_cast<unsigned char>(b[i]))) {
+      return false;
+    }
+  }
+  return true;
+}
 
 // The catalogue of every family, built by the composition root (server/gateway.cpp) from each
 // family's `<Family>ParameterCatalogue()` function.

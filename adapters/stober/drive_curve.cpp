@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/curve_run.h"
+#include "adapters/core/curve_runner.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
 #include "adapters/stober/drive.h"
@@ -29,59 +30,40 @@ constexpr auto kTick = 5ms;
 // Progress is republished when it moved this much (or reached 1): at most 200 updates per run.
 constexpr double kProgressStep = 0.005;
 
-absl::Status Annotated(const absl::Status& s, const std::string& prefix) {
-  return absl::Status(s.code(), absl::StrCat(prefix, s.message()));
-}
-
 }  // namespace
 
-class StoberDrive::CurveRunner {
+class StoberDrive::CurveRunner final : public CurveRunnerBase {
  public:
   CurveRunner(StoberDrive* drive, std::unique_ptr<CyclicStream> stream,
               std::vector<double> positions, std::vector<double> velocities, double tolerance_mm,
               size_t lead)
-      : drive_(drive),
+      : CurveRunnerBase(stream->command().id),
+        drive_(drive),
         stream_(std::move(stream)),
-        id_(stream_->command().id),
         positions_(std::move(positions)),
         velocities_(std::move(velocities)),
         tolerance_mm_(tolerance_mm),
         lead_(lead) {}
-  ~CurveRunner() { Stop(); }
-  CurveRunner(const CurveRunner&) = delete;
-  CurveRunner& operator=(const CurveRunner&) = delete;
-
-  void Start() {
-    thread_ = std::thread([this] { Run(); });
-  }
-  // Deactivate: leave at once; the drive detaches the stream (no call back into it).
-  void Stop() {
-    stop_ = true;
-    Join();
-  }
-  // The command already ended: the thread closes its stream and leaves by itself.
-  void Join() {
-    if (thread_.joinable()) thread_.join();
-  }
-  uint64_t id() const { return id_; }
+  ~CurveRunner() override { Stop(); }
 
  private:
-  void Run();
+  void Run() override;
+  // Deactivate: leave at once; the drive detaches the stream (no call back into it). A run whose
+  // command ended closes its stream and leaves by itself (Join).
+  void RequestStop() override { stop_ = true; }
   // Ends the handle unless a newer command took the tracker already.
   void End(CommandState state, const std::string& message) {
     std::lock_guard lock(drive_->mu_);
-    if (drive_->tracker_ && drive_->tracker_->id == id_) drive_->EndTrackerLocked(state, message);
+    if (drive_->tracker_ && drive_->tracker_->id == id()) drive_->EndTrackerLocked(state, message);
   }
 
   StoberDrive* const drive_;
   const std::unique_ptr<CyclicStream> stream_;
-  const uint64_t id_;
   const std::vector<double> positions_;
   const std::vector<double> velocities_;
   const double tolerance_mm_;
   const size_t lead_;
   std::atomic<bool> stop_{false};
-  std::thread thread_;
 };
 
 void StoberDrive::CurveRunner::Run() {
@@ -93,7 +75,7 @@ void StoberDrive::CurveRunner::Run() {
   TimePoint settle_deadline{};
   uint64_t seq = drive_->GetStatus().sequence;
   while (!stop_) {
-    const auto info = drive_->GetCommand(id_);
+    const auto info = drive_->GetCommand(id());
     // Superseded by another motion command (ABORTED), cancelled by the motion core (I91, e.g.
     // event 78 after I423 without set points), fault or link loss (ERROR): stop streaming.
     if (!info || IsFinal(info->state)) break;
@@ -110,7 +92,7 @@ void StoberDrive::CurveRunner::Run() {
     const double progress =
         static_cast<double>(std::min<uint64_t>(st.sent, n)) / static_cast<double>(n);
     if (progress >= reported + kProgressStep || (progress >= 1 && reported < 1)) {
-      drive_->UpdateProgress(id_, progress);
+      drive_->UpdateProgress(id(), progress);
       reported = progress;
     }
     const DriveStatus s = drive_->GetStatus();
@@ -141,7 +123,7 @@ void StoberDrive::CurveRunner::Run() {
   if (auto closed = stream_->Close(); !closed.ok()) {
     log::Warn("stober_curve_close", log::Fields()
                                         .Add("drive", drive_->config().name)
-                                        .Add("command", id_)
+                                        .Add("command", id())
                                         .Add("error", std::string(closed.status().message())));
   }
 }
@@ -151,39 +133,24 @@ absl::StatusOr<CommandInfo> StoberDrive::RunCurve(const Curve& curve,
   const std::string kind = "RunCurve";
   DGW_RETURN_IF_ERROR(RequireActive(kind.c_str()));
   const double tolerance = options.start_tolerance_mm;
-  if (!std::isfinite(tolerance) || tolerance < 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(Prefix(kind), "start_tolerance_mm: ", tolerance, " must be >= 0"));
-  }
+  DGW_RETURN_IF_ERROR(CheckStartTolerance(Prefix(kind), tolerance));
   auto samples = SampleCurve(curve);
-  if (!samples.ok()) return Annotated(samples.status(), Prefix(kind));
+  if (!samples.ok()) return PrefixedStatus(samples.status(), Prefix(kind));
   // One set point per SYNC (A291 = the SYNC period, decision 1205); the derived velocity is the
   // feed-forward I426 of each set point (L1729, L1805).
   const double period_s = ToSeconds(config().canopen.sync_period);
   auto positions = ResampleCurve(*samples, period_s);
-  if (!positions.ok()) return Annotated(positions.status(), Prefix(kind));
+  if (!positions.ok()) return PrefixedStatus(positions.status(), Prefix(kind));
   CurveSamples velocity_column = *samples;
   velocity_column.position_mm = samples->velocity_mm_s;
   auto velocities = ResampleCurve(velocity_column, period_s);
-  if (!velocities.ok()) return Annotated(velocities.status(), Prefix(kind));
+  if (!velocities.ok()) return PrefixedStatus(velocities.status(), Prefix(kind));
 
   // The previous run must have let go of its stream; one still running refuses (the axis moves,
   // and MC_CyclicPosition "should be avoided" from motion, L1799).
-  std::shared_ptr<CurveRunner> previous;
-  {
-    std::lock_guard lock(curve_mu_);
-    previous = curve_;
-  }
-  if (previous) {
-    const auto info = GetCommand(previous->id());
-    if (info && !IsFinal(info->state)) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          Prefix(kind), "curve command ", info->id,
-          " is still running; Stop or Move first (a cyclic start from motion should be avoided, "
-          "stober-motion.md L1799)"));
-    }
-    previous->Join();
-  }
+  DGW_RETURN_IF_ERROR(JoinEndedRunner(
+      curve_mu_, curve_, [&](uint64_t id) { return GetCommand(id); }, Prefix(kind),
+      " (a cyclic start from motion should be avoided, stober-motion.md L1799)"));
 
   const double start = positions->front();
   auto at_start = [&]() -> absl::Status {  // under mu_, right before the edge
@@ -214,10 +181,7 @@ absl::StatusOr<CommandInfo> StoberDrive::RunCurve(const Curve& curve,
       std::clamp<size_t>(static_cast<size_t>(std::ceil(kLeadS / period_s)), kMinLead, kMaxLead);
   auto runner = std::make_shared<CurveRunner>(this, std::move(*stream), *std::move(positions),
                                               *std::move(velocities), tolerance, lead);
-  {
-    std::lock_guard lock(curve_mu_);
-    curve_ = runner;
-  }
+  StoreRunner(curve_mu_, curve_, runner);
   runner->Start();
   log::Info("stober_curve_run", log::Fields()
                                     .Add("drive", config().name)
@@ -227,13 +191,6 @@ absl::StatusOr<CommandInfo> StoberDrive::RunCurve(const Curve& curve,
   return *GetCommand(id);
 }
 
-void StoberDrive::StopCurveRunner() {
-  std::shared_ptr<CurveRunner> runner;
-  {
-    std::lock_guard lock(curve_mu_);
-    runner = curve_;
-  }
-  if (runner) runner->Stop();
-}
+void StoberDrive::StopCurveRunner() { StopRunner(curve_mu_, curve_); }
 
 }  // namespace drivegw::stober

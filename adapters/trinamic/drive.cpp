@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/log.h"
+#include "adapters/core/motion_limits.h"
 #include "adapters/core/status.h"
 
 namespace drivegw::trinamic {
@@ -24,19 +25,6 @@ constexpr char kResetWarning[] = "controller reset: parameters re-applied, re-en
 constexpr milliseconds kDuplicateQuiet{1000};
 
 std::string Num(double v) { return absl::StrCat(v); }
-
-absl::Status CheckLimit(const std::string& field, double value, double axis_limit,
-                        const char* axis_field) {
-  // Same rule as the LinMot drives and server/core/validation.cpp (decision 1089).
-  if (!std::isfinite(value) || value <= 0) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": ", Num(value), " must be positive"));
-  }
-  if (value > axis_limit) {
-    return absl::OutOfRangeError(absl::StrCat(field, ": ", Num(value), " exceeds axis limit ",
-                                              Num(axis_limit), " (", axis_field, ")"));
-  }
-  return absl::OkStatus();
-}
 
 absl::Status Prefixed(const std::string& prefix, const absl::Status& s) {
   return absl::Status(s.code(), absl::StrCat(prefix, s.message()));
@@ -643,13 +631,8 @@ absl::StatusOr<TrinamicDrive::Ramp> TrinamicDrive::RampFor(const std::string& ki
                                                            double acceleration_mm_s2,
                                                            double deceleration_mm_s2) const {
   const AxisConfig& axis = config().axis;
-  DGW_RETURN_IF_ERROR(CheckLimit(kind + ".velocity_mm_s", velocity_mm_s, axis.max_velocity_mm_s,
-                                 "axis.max_velocity_mm_s"));
-  DGW_RETURN_IF_ERROR(CheckLimit(kind + ".acceleration_mm_s2", acceleration_mm_s2,
-                                 axis.max_acceleration_mm_s2, "axis.max_acceleration_mm_s2"));
-  double d = deceleration_mm_s2 == 0 ? acceleration_mm_s2 : deceleration_mm_s2;
-  DGW_RETURN_IF_ERROR(CheckLimit(kind + ".deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
-                                 "axis.max_acceleration_mm_s2"));
+  const double d = deceleration_mm_s2 == 0 ? acceleration_mm_s2 : deceleration_mm_s2;
+  DGW_RETURN_IF_ERROR(CheckMoveProfile(kind, velocity_mm_s, acceleration_mm_s2, d, axis));
   // §5.4: one amax for both ramp halves; the smaller of the two keeps both limits (1088).
   const double a = std::min(acceleration_mm_s2, d);
   const VelocityScale scale{shadow_.clkdiv(), shadow_.div()};

@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/curve_run.h"
+#include "adapters/core/curve_runner.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
 #include "adapters/trinamic/drive.h"
@@ -27,14 +28,10 @@ constexpr int kLineShare = 5;         // the legs' words use at most 1/5 of the 
 constexpr double kWordBits = 9 * 10;  // 9-byte word, 8N1 (§2.5)
 constexpr auto kWordGap = 2ms;        // spacing after every word (§2.5 [P], L303)
 
-absl::Status Annotated(const absl::Status& s, const std::string& prefix) {
-  return absl::Status(s.code(), absl::StrCat(prefix, s.message()));
-}
-
 }  // namespace
 
 // The legs after the first one, at their start times; then the wait for the end point.
-class TrinamicDrive::CurveRunner {
+class TrinamicDrive::CurveRunner final : public CurveRunnerBase {
  public:
   struct Leg {
     double start_s = 0;  // since the run's start
@@ -46,32 +43,14 @@ class TrinamicDrive::CurveRunner {
   // `first_word`: when leg 0's words had gone out (RunCurve sends them).
   CurveRunner(TrinamicDrive* drive, uint64_t id, std::vector<Leg> legs, double duration_s,
               int32_t tolerance, SessionClock::time_point t0, SessionClock::time_point first_word)
-      : drive_(drive),
-        id_(id),
+      : CurveRunnerBase(id),
+        drive_(drive),
         legs_(std::move(legs)),
         duration_s_(duration_s),
         tolerance_(tolerance),
         t0_(t0),
         last_word_(first_word) {}
-  ~CurveRunner() { Stop(); }
-  CurveRunner(const CurveRunner&) = delete;
-  CurveRunner& operator=(const CurveRunner&) = delete;
-
-  void Start() {
-    thread_ = std::thread([this] { Run(); });
-  }
-  void Stop() {
-    {
-      std::lock_guard lock(drive_->mu_);
-      stop_ = true;
-    }
-    drive_->cv_.notify_all();
-    Join();
-  }
-  void Join() {
-    if (thread_.joinable()) thread_.join();
-  }
-  uint64_t id() const { return id_; }
+  ~CurveRunner() override { Stop(); }
 
  private:
   SessionClock::time_point At(double s) const {
@@ -80,31 +59,30 @@ class TrinamicDrive::CurveRunner {
   }
   // With mu_ held: the handle is over (superseded, fault, link loss, reset) or the drive goes.
   bool OverLocked() const {
-    const auto info = drive_->GetCommand(id_);
+    const auto info = drive_->GetCommand(id());
     return stop_ || !info || IsFinal(info->state) || !drive_->tracker_ ||
-           drive_->tracker_->id != id_;
+           drive_->tracker_->id != id();
   }
   // With mu_ held: ends the handle (progress 1 first when it is DONE).
   void EndLocked(CommandState state, const std::string& message) {
     if (OverLocked()) return;
     drive_->tracker_.reset();
     drive_->PublishLocked();
-    if (state == CommandState::kDone) drive_->UpdateProgress(id_, 1);
-    drive_->UpdateCommand(id_, state, message);
+    if (state == CommandState::kDone) drive_->UpdateProgress(id(), 1);
+    drive_->UpdateCommand(id(), state, message);
   }
-  void Run();
+  void Run() override;
+  void RequestStop() override { SetStopFlag(drive_->mu_, drive_->cv_, stop_); }
   // Sends leg k under op_mu_ (after any Move that got there first); false when the run is over.
   bool SendLeg(size_t k);
 
   TrinamicDrive* const drive_;
-  const uint64_t id_;
   const std::vector<Leg> legs_;
   const double duration_s_;
   const int32_t tolerance_;  // microsteps
   const SessionClock::time_point t0_;
   bool stop_ = false;                   // guarded by drive_->mu_
   SessionClock::time_point last_word_;  // samples sent after it reflect the newest leg
-  std::thread thread_;
 };
 
 bool TrinamicDrive::CurveRunner::SendLeg(size_t k) {
@@ -142,7 +120,7 @@ void TrinamicDrive::CurveRunner::Run() {
       while (!OverLocked() && SessionClock::now() < due) drive_->cv_.wait_until(lock, due);
       if (OverLocked()) return;
     }
-    drive_->UpdateProgress(id_, static_cast<double>(k) / static_cast<double>(legs_.size()));
+    drive_->UpdateProgress(id(), static_cast<double>(k) / static_cast<double>(legs_.size()));
     if (!SendLeg(k)) return;
     drive_->PollSoon();
   }
@@ -192,12 +170,9 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
   const std::string kind = "RunCurve";
   DGW_RETURN_IF_ERROR(RequireActive(kind.c_str()));
   const double tolerance_mm = options.start_tolerance_mm;
-  if (!std::isfinite(tolerance_mm) || tolerance_mm < 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(Prefix(kind), "start_tolerance_mm: ", tolerance_mm, " must be >= 0"));
-  }
+  DGW_RETURN_IF_ERROR(CheckStartTolerance(Prefix(kind), tolerance_mm));
   auto samples = SampleCurve(curve);
-  if (!samples.ok()) return Annotated(samples.status(), Prefix(kind));
+  if (!samples.ok()) return PrefixedStatus(samples.status(), Prefix(kind));
   const double duration_s =
       samples->time_step_s * static_cast<double>(samples->position_mm.size() - 1);
 
@@ -236,14 +211,14 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
     CurveRunner::Leg leg;
     leg.start_s = prev_end_s;
     auto target = TargetFor(field, seg.position_mm);
-    if (!target.ok()) return Annotated(target.status(), Prefix(kind));
+    if (!target.ok()) return PrefixedStatus(target.status(), Prefix(kind));
     leg.target = *target;
     auto prev_target = MmToMicrosteps(prev_mm, mpu_);
     leg.moves = !prev_target.ok() || *prev_target != leg.target;
     if (leg.moves) {
       const double v = std::min(seg.velocity_mm_s, axis.max_velocity_mm_s);
       auto vmax = MmPerSecondToVelocity(std::max(v, 0.0), scale, mpu_);
-      if (!vmax.ok()) return Annotated(vmax.status(), absl::StrCat(Prefix(kind), field, ": "));
+      if (!vmax.ok()) return PrefixedStatus(vmax.status(), absl::StrCat(Prefix(kind), field, ": "));
       leg.ramp = Ramp{std::max(1, *vmax), amax};
     }
     legs.push_back(leg);
@@ -252,19 +227,8 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
   }
 
   // A curve still running refuses (its motor moves; decision 1232), one that ended lets go.
-  std::shared_ptr<CurveRunner> previous;
-  {
-    std::lock_guard lock(curve_mu_);
-    previous = curve_;
-  }
-  if (previous) {
-    const auto info = GetCommand(previous->id());
-    if (info && !IsFinal(info->state)) {
-      return absl::FailedPreconditionError(absl::StrCat(Prefix(kind), "curve command ", info->id,
-                                                        " is still running; Stop or Move first"));
-    }
-    previous->Join();
-  }
+  DGW_RETURN_IF_ERROR(JoinEndedRunner(
+      curve_mu_, curve_, [&](uint64_t id) { return GetCommand(id); }, Prefix(kind)));
 
   std::lock_guard op(op_mu_);
   const double start_mm = samples->position_mm.front();
@@ -319,10 +283,7 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
   if (!accepted.ok()) return accepted;
   auto runner = std::make_shared<CurveRunner>(this, info.id, std::move(legs), duration_s, tolerance,
                                               t0, first_word);
-  {
-    std::lock_guard lock(curve_mu_);
-    curve_ = runner;
-  }
+  StoreRunner(curve_mu_, curve_, runner);
   runner->Start();
   log::Info("trinamic_curve_run", log::Fields()
                                       .Add("drive", name_)
@@ -333,13 +294,6 @@ absl::StatusOr<CommandInfo> TrinamicDrive::RunCurve(const Curve& curve,
   return *GetCommand(info.id);
 }
 
-void TrinamicDrive::StopCurveRunner() {
-  std::shared_ptr<CurveRunner> runner;
-  {
-    std::lock_guard lock(curve_mu_);
-    runner = curve_;
-  }
-  if (runner) runner->Stop();
-}
+void TrinamicDrive::StopCurveRunner() { StopRunner(curve_mu_, curve_); }
 
 }  // namespace drivegw::trinamic

@@ -4,13 +4,13 @@
 #include "adapters/trinamic/parameters.h"
 
 #include <array>
-#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <string>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "adapters/core/parameter_catalogue.h"
 #include "adapters/trinamic/units.h"
 
 namespace drivegw::trinamic {
@@ -196,17 +196,6 @@ std::optional<ParameterScope> ScopeOfOpcode(Opcode opcode) {
   return std::nullopt;
 }
 
-bool EqualsIgnoreCase(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (size_t i = 0; i < a.size(); ++i) {
-    if (std::tolower(static_cast<unsigned char>(a[i])) !=
-        std::tolower(static_cast<unsigned char>(b[i]))) {
-      return false;
-    }
-  }
-  return true;
-}
-
 // "4.69" — two decimals without pulling in str_format.
 std::string Fixed2(double v) {
   const int64_t hundredths = std::llround(v * 100.0);
@@ -245,7 +234,7 @@ absl::StatusOr<const ParameterDefinition*> FindParameter(std::string_view name) 
     }
   } else {
     for (const ParameterDefinition& d : TheCatalogue().definitions) {
-      if (EqualsIgnoreCase(d.name, name)) return &d;
+      if (NameEqualsIgnoreCase(d.name, name)) return &d;
     }
   }
   return absl::NotFoundError(absl::StrCat(

@@ -3,6 +3,7 @@
 #include "server/core/curve_set_service.h"
 
 #include <cmath>
+#include <optional>
 #include <set>
 #include <utility>
 
@@ -17,7 +18,7 @@
 #include "server/core/curve_set_io.h"
 #include "server/core/drive_service.h"
 #include "server/core/errors.h"
-#include "server/core/page_token.h"
+#include "server/core/set_service_common.h"
 
 namespace drivegw::server {
 namespace {
@@ -29,33 +30,6 @@ constexpr absl::string_view kSetPrefix = "curveSets/";
 // the problem, the count says how big it is.
 constexpr size_t kMaxViolations = 100;
 constexpr double kDefaultStartToleranceMm = 0.1;  // CurveRunOptions (decision 013)
-
-std::string SetResource(const std::string& id) { return absl::StrCat(std::string(kSetPrefix), id); }
-
-// A stale etag (FailedPrecondition from the repo) gets a google.rpc.PreconditionFailure
-// {type "ETAG"}: the REST front end answers it 412 (RFC 9110 §13.1.1 If-Match), as for parameter
-// sets (decision 011).
-absl::Status EtagDetail(absl::Status s, const std::string& set) {
-  if (!absl::IsFailedPrecondition(s) || !absl::StrContains(s.message(), "etag")) return s;
-  google::rpc::PreconditionFailure pf;
-  auto* v = pf.add_violations();
-  v->set_type("ETAG");
-  v->set_subject(SetResource(set));
-  v->set_description(std::string(s.message()));
-  s.SetPayload("type.googleapis.com/google.rpc.PreconditionFailure",
-               absl::Cord(pf.SerializeAsString()));
-  return s;
-}
-
-// {"before": ..., "after": ...} for the audit entry (either may be absent).
-std::string BeforeAfter(const v1::CurveSet* before, const v1::CurveSet* after) {
-  std::string out = "{";
-  if (before != nullptr) absl::StrAppend(&out, "\"before\":", ToAuditJson(*before));
-  if (after != nullptr) {
-    absl::StrAppend(&out, before != nullptr ? "," : "", "\"after\":", ToAuditJson(*after));
-  }
-  return out + "}";
-}
 
 // A family without the operation answers Unimplemented at the Drive seam (decision 013). The
 // call itself exists, the target drive cannot do it: FailedPrecondition (pick another drive),
@@ -116,6 +90,38 @@ class AuditObject {
   google::protobuf::Struct s_;
 };
 
+// The one audit entry of a DownloadCurve or RunCurve call: the request, what the call resolved
+// (set, version, curve) and did, under the drive's name as far as it was found (`drive` follows
+// the call's CurveTarget).
+class CurveCallAudit {
+ public:
+  CurveCallAudit(storage::AuditLog* log, const CallContext& c, const char* action,
+                 const google::protobuf::Message& request, const std::string& drive)
+      : log_(log), c_(c), action_(action), request_(request), drive_(drive) {}
+
+  AuditObject& entry() { return entry_; }
+  // Names the set, version and curve once the curve was found (version != 0).
+  void Target(const std::string& set, int version, const std::string& curve) {
+    if (version == 0) return;
+    entry_.Str("set", SetResource(kSetPrefix, set)).Num("version", version).Str("curve", curve);
+  }
+  void Write(const absl::Status& s) const {
+    WriteAudit(log_, c_, drive_, action_, entry_.With("request", ToAuditJson(request_)), s);
+  }
+  absl::Status Fail(absl::Status s) const {
+    Write(s);
+    return s;
+  }
+
+ private:
+  storage::AuditLog* const log_;
+  const CallContext& c_;
+  const char* const action_;
+  const google::protobuf::Message& request_;
+  const std::string& drive_;
+  AuditObject entry_;
+};
+
 // The violations of the curve at `index` of its set against `axis`, capped like a set's.
 std::vector<v1::CurveViolation> CurveViolationsAt(size_t index, const Curve& curve,
                                                   const AxisConfig& axis) {
@@ -135,14 +141,7 @@ std::vector<v1::CurveViolation> CurveViolationsAt(size_t index, const Curve& cur
 }  // namespace
 
 absl::StatusOr<std::string> CurveSetId(const std::string& field, const std::string& name) {
-  if (name.empty()) return FieldError(field, "is required (\"curveSets/{set}\")");
-  absl::string_view id = name;
-  if (absl::StartsWith(id, kSetPrefix)) id.remove_prefix(kSetPrefix.size());
-  if (id.empty() || absl::StrContains(id, '/')) {
-    return FieldError(field,
-                      absl::StrCat("'", name, "' is not a curve set name (\"curveSets/{set}\")"));
-  }
-  return std::string(id);
+  return SetIdFromName(field, name, kSetPrefix, "curve set");
 }
 
 std::vector<v1::CurveViolation> CurveSetViolations(const std::vector<Curve>& curves,
@@ -196,6 +195,26 @@ absl::Status ViolationsStatus(const std::vector<v1::CurveViolation>& violations,
                absl::Cord(br.SerializeAsString()));
   return s;
 }
+
+namespace {
+
+// The set a Create or Update request carries, named `name`, its shape checked (no axis yet):
+// errors name the "curve_set.curves[i]..." field.
+absl::StatusOr<CurveSet> RequestedCurveSet(const std::string& name, const v1::CurveSet& in) {
+  CurveSet set;
+  set.name = name;
+  set.description = in.description();
+  for (int i = 0; i < in.curves_size(); ++i) {
+    auto curve = CurveFromProto(absl::StrCat("curve_set.curves[", i, "]"), in.curves(i));
+    if (!curve.ok()) return curve.status();
+    set.curves.push_back(*std::move(curve));
+  }
+  DGW_RETURN_IF_ERROR(ViolationsStatus(CurveSetViolations(set.curves, nullptr, "curve_set."),
+                                       absl::StatusCode::kInvalidArgument));
+  return set;
+}
+
+}  // namespace
 
 CurveSetServiceCore::CurveSetServiceCore(storage::CurveSetRepo& repo,
                                          std::vector<std::shared_ptr<Drive>> drives,
@@ -254,32 +273,41 @@ absl::StatusOr<Curve> CurveSetServiceCore::CurveAt(const std::string& name,
                                           "' (curves: ", known.empty() ? "none" : known, ")"));
 }
 
-absl::StatusOr<v1::CurveSet> CurveSetServiceCore::CreateCurveSet(const v1::CreateCurveSetRequest& r,
-                                                                 const CallContext& c) {
+absl::StatusOr<v1::CurveSet> CurveSetServiceCore::StoreCurveSet(
+    const char* action, const google::protobuf::Message& request, const v1::CurveSet& in,
+    bool update, const std::string& etag, const std::string& comment, const CallContext& c) {
   auto fail = [&](absl::Status s) {
-    WriteAudit(audit_, c, "", "CreateCurveSet", ToAuditJson(r), s);
+    WriteAudit(audit_, c, "", action, ToAuditJson(request), s);
     return s;
   };
-  auto name = CurveSetId("curve_set.name", r.curve_set().name());
+  auto name = CurveSetId("curve_set.name", in.name());
   if (!name.ok()) return fail(name.status());
-  CurveSet set;
-  set.name = *name;
-  set.description = r.curve_set().description();
-  for (int i = 0; i < r.curve_set().curves_size(); ++i) {
-    auto curve = CurveFromProto(absl::StrCat("curve_set.curves[", i, "]"), r.curve_set().curves(i));
-    if (!curve.ok()) return fail(curve.status());
-    set.curves.push_back(*std::move(curve));
+  if (update && etag.empty()) {
+    return fail(FieldError("etag", "is required (updates are conditional)"));
   }
-  if (auto s = ViolationsStatus(CurveSetViolations(set.curves, nullptr, "curve_set."),
-                                absl::StatusCode::kInvalidArgument);
-      !s.ok()) {
-    return fail(s);
+  auto set = RequestedCurveSet(*name, in);
+  if (!set.ok()) return fail(set.status());
+  std::optional<v1::CurveSet> before;
+  absl::StatusOr<storage::StoredCurveSet> stored;
+  if (update) {
+    auto old = repo_.Get(*name);
+    if (!old.ok()) return fail(old.status());
+    before = CurveSetToProto(*old);
+    stored = repo_.Update(*set, etag, c.principal, comment);
+    if (!stored.ok()) return fail(EtagDetail(stored.status(), SetResource(kSetPrefix, *name)));
+  } else {
+    stored = repo_.Create(*set, c.principal, comment);
+    if (!stored.ok()) return fail(stored.status());
   }
-  auto stored = repo_.Create(set, c.principal, r.comment());
-  if (!stored.ok()) return fail(stored.status());
   v1::CurveSet out = CurveSetToProto(*stored);
-  WriteAudit(audit_, c, "", "CreateCurveSet", BeforeAfter(nullptr, &out), absl::OkStatus());
+  WriteAudit(audit_, c, "", action, BeforeAfterJson(before ? &*before : nullptr, &out),
+             absl::OkStatus());
   return out;
+}
+
+absl::StatusOr<v1::CurveSet> CurveSetServiceCore::CreateCurveSet(const v1::CreateCurveSetRequest& r,
+                                                                 const CallContext& c) {
+  return StoreCurveSet("CreateCurveSet", r, r.curve_set(), false, "", r.comment(), c);
 }
 
 absl::StatusOr<v1::CurveSet> CurveSetServiceCore::GetCurveSet(const v1::GetCurveSetRequest& r,
@@ -293,75 +321,30 @@ absl::StatusOr<v1::CurveSet> CurveSetServiceCore::GetCurveSet(const v1::GetCurve
 
 absl::StatusOr<v1::ListCurveSetsResponse> CurveSetServiceCore::ListCurveSets(
     const v1::ListCurveSetsRequest& r, const CallContext&) {
-  if (r.page_size() < 0 || r.page_size() > storage::CurveSetQuery::kMaxLimit) {
-    return FieldError("page_size", absl::StrCat(r.page_size(), " is outside 0..",
-                                                storage::CurveSetQuery::kMaxLimit));
-  }
-  const int limit = r.page_size() == 0 ? 100 : r.page_size();
+  auto page = SetPageOf(r.page_size(), r.page_token(), storage::CurveSetQuery::kMaxLimit);
+  if (!page.ok()) return page.status();
   storage::CurveSetQuery q;
-  auto after = SetPageToken(r.page_token());
-  if (!after.ok()) return after.status();
-  q.after_name = *std::move(after);
-  // One more than asked for tells whether a next page exists.
-  q.limit = std::min(limit + 1, storage::CurveSetQuery::kMaxLimit);
+  q.after_name = page->after_name;
+  q.limit = page->query_limit;
   auto sets = repo_.List(q);
   if (!sets.ok()) return sets.status();
   v1::ListCurveSetsResponse out;
-  for (size_t i = 0; i < sets->size() && static_cast<int>(i) < limit; ++i) {
-    *out.add_curve_sets() = CurveSetToProto((*sets)[i]);
-  }
-  if (static_cast<int>(sets->size()) > limit) {
-    out.set_next_page_token((*sets)[static_cast<size_t>(limit) - 1].set.name);
-  }
+  out.set_next_page_token(EmitPage(
+      *sets, *page, [&](const auto& set) { *out.add_curve_sets() = CurveSetToProto(set); },
+      [](const auto& set) { return set.set.name; }));
   return out;
 }
 
 absl::StatusOr<v1::CurveSet> CurveSetServiceCore::UpdateCurveSet(const v1::UpdateCurveSetRequest& r,
                                                                  const CallContext& c) {
-  auto fail = [&](absl::Status s) {
-    WriteAudit(audit_, c, "", "UpdateCurveSet", ToAuditJson(r), s);
-    return s;
-  };
-  auto name = CurveSetId("curve_set.name", r.curve_set().name());
-  if (!name.ok()) return fail(name.status());
-  if (r.etag().empty()) return fail(FieldError("etag", "is required (updates are conditional)"));
-  CurveSet set;
-  set.name = *name;
-  set.description = r.curve_set().description();
-  for (int i = 0; i < r.curve_set().curves_size(); ++i) {
-    auto curve = CurveFromProto(absl::StrCat("curve_set.curves[", i, "]"), r.curve_set().curves(i));
-    if (!curve.ok()) return fail(curve.status());
-    set.curves.push_back(*std::move(curve));
-  }
-  if (auto s = ViolationsStatus(CurveSetViolations(set.curves, nullptr, "curve_set."),
-                                absl::StatusCode::kInvalidArgument);
-      !s.ok()) {
-    return fail(s);
-  }
-  auto before = repo_.Get(*name);
-  if (!before.ok()) return fail(before.status());
-  auto stored = repo_.Update(set, r.etag(), c.principal, r.comment());
-  if (!stored.ok()) return fail(EtagDetail(stored.status(), *name));
-  const v1::CurveSet b = CurveSetToProto(*before);
-  v1::CurveSet out = CurveSetToProto(*stored);
-  WriteAudit(audit_, c, "", "UpdateCurveSet", BeforeAfter(&b, &out), absl::OkStatus());
-  return out;
+  return StoreCurveSet("UpdateCurveSet", r, r.curve_set(), true, r.etag(), r.comment(), c);
 }
 
 absl::StatusOr<v1::DeleteCurveSetResponse> CurveSetServiceCore::DeleteCurveSet(
     const v1::DeleteCurveSetRequest& r, const CallContext& c) {
-  auto name = CurveSetId("name", r.name());
-  absl::Status s = name.status();
   std::string json = ToAuditJson(r);
-  if (s.ok() && r.etag().empty()) s = FieldError("etag", "is required (deletes are conditional)");
-  if (s.ok()) {
-    auto before = repo_.Get(*name);
-    if (before.ok()) {
-      const v1::CurveSet b = CurveSetToProto(*before);
-      json = BeforeAfter(&b, nullptr);
-    }
-    s = EtagDetail(repo_.Delete(*name, r.etag()), *name);
-  }
+  const absl::Status s =
+      DeleteSet(repo_, CurveSetId("name", r.name()), r.etag(), kSetPrefix, CurveSetToProto, json);
   WriteAudit(audit_, c, "", "DeleteCurveSet", json, s);
   if (!s.ok()) return s;
   return v1::DeleteCurveSetResponse();
@@ -369,23 +352,13 @@ absl::StatusOr<v1::DeleteCurveSetResponse> CurveSetServiceCore::DeleteCurveSet(
 
 absl::StatusOr<v1::ListCurveSetVersionsResponse> CurveSetServiceCore::ListCurveSetVersions(
     const v1::ListCurveSetVersionsRequest& r, const CallContext&) {
-  auto name = CurveSetId("name", r.name());
-  if (!name.ok()) return name.status();
-  auto versions = repo_.ListVersions(*name);
-  if (!versions.ok()) return versions.status();
-  v1::ListCurveSetVersionsResponse out;
-  for (const auto& v : *versions) *out.add_versions() = CurveSetVersionToProto(*name, v);
-  return out;
+  return ListSetVersions<v1::ListCurveSetVersionsResponse>(repo_, CurveSetId("name", r.name()),
+                                                           CurveSetVersionToProto);
 }
 
 absl::StatusOr<v1::CurveSetVersion> CurveSetServiceCore::GetCurveSetVersion(
     const v1::GetCurveSetVersionRequest& r, const CallContext&) {
-  auto name = CurveSetId("name", r.name());
-  if (!name.ok()) return name.status();
-  if (r.version() < 1) return FieldError("version", absl::StrCat(r.version(), " is below 1"));
-  auto v = repo_.GetVersion(*name, r.version());
-  if (!v.ok()) return v.status();
-  return CurveSetVersionToProto(*name, *v);
+  return GetSetVersion(repo_, CurveSetId("name", r.name()), r.version(), CurveSetVersionToProto);
 }
 
 absl::StatusOr<v1::CurvePlot> CurveSetServiceCore::GetCurvePlot(const v1::GetCurvePlotRequest& r,
@@ -402,7 +375,7 @@ absl::StatusOr<v1::CurvePlot> CurveSetServiceCore::GetCurvePlot(const v1::GetCur
     return absl::DataLossError(absl::StrCat("curve set '", *name, "' version ", version, " curve '",
                                             r.curve(), "': ", plot.status().message()));
   }
-  plot->set_name(SetResource(*name));
+  plot->set_name(SetResource(kSetPrefix, *name));
   plot->set_version(version);
   return plot;
 }
@@ -441,51 +414,43 @@ absl::Status CurveSetServiceCore::ResolveTarget(const std::string& drive, const 
 
 absl::StatusOr<v1::DownloadCurveResponse> CurveSetServiceCore::DownloadCurve(
     const v1::DownloadCurveRequest& r, const CallContext& c) {
-  AuditObject entry;
   CurveTarget t;
-  auto audit = [&](const absl::Status& s) {
-    WriteAudit(audit_, c, t.drive_name, "DownloadCurve", entry.With("request", ToAuditJson(r)), s);
-  };
-  auto done = [&](absl::Status s) {
-    audit(s);
-    return s;
-  };
+  CurveCallAudit audit(audit_, c, "DownloadCurve", r, t.drive_name);
   absl::Status resolved = ResolveTarget(r.drive(), r.name(), r.curve(), r.version(), c, &t);
-  if (t.version != 0) {
-    entry.Str("set", SetResource(t.set)).Num("version", t.version).Str("curve", t.curve.name);
-  }
-  if (!resolved.ok()) return done(resolved);
+  audit.Target(t.set, t.version, t.curve.name);
+  if (!resolved.ok()) return audit.Fail(resolved);
   Drive& d = *t.drive;
   const Curve* curve = &t.curve;
   int id = r.linmot_curve_id();
   if (const auto* lm = std::get_if<LM>(&curve->shape)) {
     if (id != 0 && id != lm->curve_id) {
-      return done(
+      return audit.Fail(
           FieldError("linmot_curve_id",
                      absl::StrCat(id, ": curve '", curve->name, "' is a LinMot curve with ID ",
                                   lm->curve_id, " (give 0 or ", lm->curve_id, ")")));
     }
     id = lm->curve_id;
   } else if (id < LM::kMinCurveId || id > LM::kMaxCurveId) {
-    return done(
+    return audit.Fail(
         FieldError("linmot_curve_id",
                    absl::StrCat(id, " is outside ", LM::kMinCurveId, "..", LM::kMaxCurveId,
                                 " (required for a position/time curve; linmot-mc.md §7 L997)")));
   }
   auto wire = ToLinMotCurve(*curve, id);
-  if (!wire.ok()) return done(FieldError("curve", std::string(wire.status().message())));
+  if (!wire.ok()) return audit.Fail(FieldError("curve", std::string(wire.status().message())));
   const std::string hash = LinMotCurveHash(*wire);
-  entry.Num("curve_id", wire->curve_id)
+  audit.entry()
+      .Num("curve_id", wire->curve_id)
       .Num("points", static_cast<double>(wire->points.size()))
       .Str("hash", hash);
   // A download writes the drive's curve memory like WriteParameter does: refused while DOWN, last
   // before the family, so a request that can never be valid is named as such first (decision 1491).
-  if (auto down = RefuseIfDown(d, "DownloadCurve"); !down.ok()) return done(down);
+  if (auto down = RefuseIfDown(d, "DownloadCurve"); !down.ok()) return audit.Fail(down);
   absl::Status s = MapUnsupported(d.DownloadCurve(*wire), d, "DownloadCurve",
                                   "curves are stored on LinMot drives only; RunCurve runs them "
                                   "on every family");
-  if (!s.ok()) return done(s);
-  audit(s);
+  if (!s.ok()) return audit.Fail(s);
+  audit.Write(s);
   v1::DownloadCurveResponse out;
   out.set_drive(DriveResourceName(d.config().name));
   out.set_curve_id(wire->curve_id);
@@ -497,49 +462,40 @@ absl::StatusOr<v1::DownloadCurveResponse> CurveSetServiceCore::DownloadCurve(
 
 absl::StatusOr<v1::CommandHandle> CurveSetServiceCore::RunCurve(const v1::RunCurveRequest& r,
                                                                 const CallContext& c) {
-  AuditObject entry;
   CurveTarget t;
-  auto audit = [&](const absl::Status& s) {
-    WriteAudit(audit_, c, t.drive_name, "RunCurve", entry.With("request", ToAuditJson(r)), s);
-  };
-  auto done = [&](absl::Status s) {
-    audit(s);
-    return s;
-  };
+  CurveCallAudit audit(audit_, c, "RunCurve", r, t.drive_name);
   absl::Status resolved = ResolveTarget(r.drive(), r.name(), r.curve(), r.version(), c, &t);
-  if (t.version != 0) {
-    entry.Str("set", SetResource(t.set)).Num("version", t.version).Str("curve", t.curve.name);
-  }
-  if (!resolved.ok()) return done(resolved);
+  audit.Target(t.set, t.version, t.curve.name);
+  if (!resolved.ok()) return audit.Fail(resolved);
   Drive& d = *t.drive;
   const Curve* curve = &t.curve;
   CurveRunOptions options;
   options.start_tolerance_mm = r.start_tolerance_mm();
   if (!std::isfinite(options.start_tolerance_mm) || options.start_tolerance_mm < 0) {
-    return done(FieldError("start_tolerance_mm",
-                           absl::StrCat(r.start_tolerance_mm(), " is not a finite value >= 0")));
+    return audit.Fail(FieldError(
+        "start_tolerance_mm", absl::StrCat(r.start_tolerance_mm(), " is not a finite value >= 0")));
   }
   if (options.start_tolerance_mm == 0) options.start_tolerance_mm = kDefaultStartToleranceMm;
   options.linmot_scratch_curve_id = r.linmot_scratch_curve_id();
   if (options.linmot_scratch_curve_id == 0) options.linmot_scratch_curve_id = LM::kMaxCurveId;
   if (options.linmot_scratch_curve_id < LM::kMinCurveId ||
       options.linmot_scratch_curve_id > LM::kMaxCurveId) {
-    return done(
+    return audit.Fail(
         FieldError("linmot_scratch_curve_id",
                    absl::StrCat(r.linmot_scratch_curve_id(), " is outside ", LM::kMinCurveId, "..",
                                 LM::kMaxCurveId, " (linmot-mc.md §7 L997)")));
   }
-  if (auto sum = SummarizeCurve(*curve); sum.ok()) entry.Num("duration_s", sum->duration_s);
+  if (auto sum = SummarizeCurve(*curve); sum.ok()) audit.entry().Num("duration_s", sum->duration_s);
   // A curve run moves the axis: refused while DOWN like every move (decision 1491).
-  if (auto down = RefuseIfDown(d, "RunCurve"); !down.ok()) return done(down);
+  if (auto down = RefuseIfDown(d, "RunCurve"); !down.ok()) return audit.Fail(down);
   auto info = d.RunCurve(*curve, options);
   if (!info.ok()) {
-    return done(MapUnsupported(info.status(), d, "RunCurve",
-                               "its family has no curve runner in this build"));
+    return audit.Fail(MapUnsupported(info.status(), d, "RunCurve",
+                                     "its family has no curve runner in this build"));
   }
   v1::CommandHandle out = ToProto(d.config().name, *info);
-  entry.Str("command", out.name());
-  audit(absl::OkStatus());
+  audit.entry().Str("command", out.name());
+  audit.Write(absl::OkStatus());
   return out;
 }
 

@@ -62,6 +62,13 @@ class CurveSetServiceCore {
   absl::StatusOr<Curve> CurveAt(const std::string& name, const std::string& curve, int version,
                                 int* version_out, size_t* index_out);
   absl::StatusOr<Drive*> FindDrive(const std::string& field, const std::string& name) const;
+  // Create (update false) or conditional Update of the set `in` for `action`, with its one audit
+  // entry: the request when refused, the set before (Update) and after when stored.
+  absl::StatusOr<v1::CurveSet> StoreCurveSet(const char* action,
+                                             const google::protobuf::Message& request,
+                                             const v1::CurveSet& in, bool update,
+                                             const std::string& etag, const std::string& comment,
+                                             const CallContext& c);
 
   // What a download or run addresses, filled as far as it could be resolved (the audit entry
   // names as much as is known even when a later step failed).

@@ -12,8 +12,8 @@
 #include "google/rpc/error_details.pb.h"
 #include "server/core/audit.h"
 #include "server/core/errors.h"
-#include "server/core/page_token.h"
 #include "server/core/parameter_set_io.h"
+#include "server/core/set_service_common.h"
 
 namespace drivegw::server {
 namespace {
@@ -64,6 +64,10 @@ v1::ParameterSetVersion ToProto(const std::string& name, const storage::Paramete
   *p.mutable_create_time() = ToProto(v.created_at);
   return p;
 }
+
+// The version overload as a value for the shared version calls (set_service_common.h).
+constexpr auto kVersionToProto =
+    [](const std::string& name, const storage::ParameterSetVersion& v) { return ToProto(name, v); };
 
 v1::Operation ToProto(const storage::ApplyOperation& op) {
   v1::Operation p;
@@ -116,42 +120,10 @@ std::vector<storage::ParameterValue> FromProto(
   return out;
 }
 
-// A stale etag (FailedPrecondition from the repo) gets a google.rpc.PreconditionFailure
-// {type "ETAG", subject the set}: the REST front end answers it 412 instead of 400 (RFC 9110
-// §13.1.1 If-Match; decision 011), gRPC clients see FAILED_PRECONDITION with the detail.
-absl::Status EtagDetail(absl::Status s, const std::string& set) {
-  if (!absl::IsFailedPrecondition(s) || !absl::StrContains(s.message(), "etag")) return s;
-  google::rpc::PreconditionFailure pf;
-  auto* v = pf.add_violations();
-  v->set_type("ETAG");
-  v->set_subject(absl::StrCat(std::string(kSetPrefix), set));
-  v->set_description(std::string(s.message()));
-  s.SetPayload("type.googleapis.com/google.rpc.PreconditionFailure",
-               absl::Cord(pf.SerializeAsString()));
-  return s;
-}
-
-// {"before": ..., "after": ...} for the audit entry (either may be absent).
-std::string BeforeAfter(const v1::ParameterSet* before, const v1::ParameterSet* after) {
-  std::string out = "{";
-  if (before != nullptr) absl::StrAppend(&out, "\"before\":", ToAuditJson(*before));
-  if (after != nullptr) {
-    absl::StrAppend(&out, before != nullptr ? "," : "", "\"after\":", ToAuditJson(*after));
-  }
-  return out + "}";
-}
-
 }  // namespace
 
 absl::StatusOr<std::string> ParameterSetId(const std::string& field, const std::string& name) {
-  if (name.empty()) return FieldError(field, "is required (\"parameterSets/{set}\")");
-  absl::string_view id = name;
-  if (absl::StartsWith(id, kSetPrefix)) id.remove_prefix(kSetPrefix.size());
-  if (id.empty() || absl::StrContains(id, '/')) {
-    return FieldError(
-        field, absl::StrCat("'", name, "' is not a parameter set name (\"parameterSets/{set}\")"));
-  }
-  return std::string(id);
+  return SetIdFromName(field, name, kSetPrefix, "parameter set");
 }
 
 ParameterSetServiceCore::ParameterSetServiceCore(storage::ParameterSetRepo& repo,
@@ -283,15 +255,15 @@ absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::Store(
     if (auto old = repo_.Get(set.name); old.ok()) before = ToProto(*old);
     stored = repo_.Update(set, etag, comment);
   }
-  absl::StatusOr<v1::ParameterSet> out = stored.ok()
-                                             ? absl::StatusOr<v1::ParameterSet>(ToProto(*stored))
-                                             : EtagDetail(stored.status(), set.name);
+  absl::StatusOr<v1::ParameterSet> out =
+      stored.ok() ? absl::StatusOr<v1::ParameterSet>(ToProto(*stored))
+                  : EtagDetail(stored.status(), SetResource(kSetPrefix, set.name));
   std::string json;
   if (out.ok()) {
-    json = BeforeAfter(before ? &*before : nullptr, &*out);
+    json = BeforeAfterJson(before ? &*before : nullptr, &*out);
   } else {
     v1::ParameterSet attempted = ToProto(set);
-    json = BeforeAfter(before ? &*before : nullptr, &attempted);
+    json = BeforeAfterJson(before ? &*before : nullptr, &attempted);
   }
   Audit(c, "", action, json, out.status());
   return out;
@@ -329,25 +301,18 @@ absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::GetParameterSet(
 
 absl::StatusOr<v1::ListParameterSetsResponse> ParameterSetServiceCore::ListParameterSets(
     const v1::ListParameterSetsRequest& r, const CallContext&) {
-  if (r.page_size() < 0 || r.page_size() > storage::ParameterSetQuery::kMaxLimit) {
-    return FieldError("page_size", absl::StrCat(r.page_size(), " is outside 0..",
-                                                storage::ParameterSetQuery::kMaxLimit));
-  }
+  auto page = SetPageOf(r.page_size(), r.page_token(), storage::ParameterSetQuery::kMaxLimit);
+  if (!page.ok()) return page.status();
   storage::ParameterSetQuery q;
   if (!r.family().empty()) q.family = r.family();
-  auto after = SetPageToken(r.page_token());
-  if (!after.ok()) return after.status();
-  q.after_name = *std::move(after);
-  const int limit = r.page_size() == 0 ? 100 : r.page_size();
-  // One more than the page tells whether a next page exists.
-  q.limit = std::min(limit + 1, storage::ParameterSetQuery::kMaxLimit);
+  q.after_name = page->after_name;
+  q.limit = page->query_limit;
   auto sets = repo_.List(q);
   if (!sets.ok()) return sets.status();
   v1::ListParameterSetsResponse out;
-  for (size_t i = 0; i < sets->size() && static_cast<int>(i) < limit; ++i) {
-    *out.add_parameter_sets() = ToProto((*sets)[i]);
-  }
-  if (static_cast<int>(sets->size()) > limit) out.set_next_page_token((*sets)[limit - 1].name);
+  out.set_next_page_token(EmitPage(
+      *sets, *page, [&](const auto& set) { *out.add_parameter_sets() = ToProto(set); },
+      [](const auto& set) { return set.name; }));
   return out;
 }
 
@@ -380,18 +345,10 @@ absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::UpdateParameterSet(
 
 absl::StatusOr<v1::DeleteParameterSetResponse> ParameterSetServiceCore::DeleteParameterSet(
     const v1::DeleteParameterSetRequest& r, const CallContext& c) {
-  auto name = ParameterSetId("name", r.name());
-  absl::Status s = name.status();
   std::string json = ToAuditJson(r);
-  if (s.ok() && r.etag().empty()) s = FieldError("etag", "is required (deletes are conditional)");
-  if (s.ok()) {
-    auto before = repo_.Get(*name);
-    if (before.ok()) {
-      v1::ParameterSet b = ToProto(*before);
-      json = BeforeAfter(&b, nullptr);
-    }
-    s = EtagDetail(repo_.Delete(*name, r.etag()), *name);
-  }
+  const absl::Status s = DeleteSet(
+      repo_, ParameterSetId("name", r.name()), r.etag(), kSetPrefix,
+      [](const storage::ParameterSet& set) { return ToProto(set); }, json);
   Audit(c, "", "DeleteParameterSet", json, s);
   if (!s.ok()) return s;
   return v1::DeleteParameterSetResponse();
@@ -400,23 +357,13 @@ absl::StatusOr<v1::DeleteParameterSetResponse> ParameterSetServiceCore::DeletePa
 absl::StatusOr<v1::ListParameterSetVersionsResponse>
 ParameterSetServiceCore::ListParameterSetVersions(const v1::ListParameterSetVersionsRequest& r,
                                                   const CallContext&) {
-  auto name = ParameterSetId("name", r.name());
-  if (!name.ok()) return name.status();
-  auto versions = repo_.ListVersions(*name);
-  if (!versions.ok()) return versions.status();
-  v1::ListParameterSetVersionsResponse out;
-  for (const auto& v : *versions) *out.add_versions() = ToProto(*name, v);
-  return out;
+  return ListSetVersions<v1::ListParameterSetVersionsResponse>(
+      repo_, ParameterSetId("name", r.name()), kVersionToProto);
 }
 
 absl::StatusOr<v1::ParameterSetVersion> ParameterSetServiceCore::GetParameterSetVersion(
     const v1::GetParameterSetVersionRequest& r, const CallContext&) {
-  auto name = ParameterSetId("name", r.name());
-  if (!name.ok()) return name.status();
-  if (r.version() < 1) return FieldError("version", absl::StrCat(r.version(), " is below 1"));
-  auto v = repo_.GetVersion(*name, r.version());
-  if (!v.ok()) return v.status();
-  return ToProto(*name, *v);
+  return GetSetVersion(repo_, ParameterSetId("name", r.name()), r.version(), kVersionToProto);
 }
 
 absl::StatusOr<v1::ParameterSet> ParameterSetServiceCore::CaptureParameterSet(

@@ -1,14 +1,13 @@
 // LinMot DeviceNet catalogue (decision 009), driven by the command table (commands.h, §8.4).
 #include "adapters/linmot/devicenet/catalogue.h"
 
-#include <cctype>
-#include <charconv>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "adapters/linmot/common/parameter_id.h"
 #include "adapters/linmot/devicenet/commands.h"
 #include "adapters/linmot/devicenet/factory.h"
 
@@ -25,17 +24,6 @@ bool IsParameterSet(uint8_t id) {
 }
 
 std::string IdText(uint32_t id) { return absl::StrFormat("0x%02X", id); }
-
-bool EqualsIgnoreCase(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (size_t i = 0; i < a.size(); ++i) {
-    if (std::tolower(static_cast<unsigned char>(a[i])) !=
-        std::tolower(static_cast<unsigned char>(b[i]))) {
-      return false;
-    }
-  }
-  return true;
-}
 
 ParameterDefinition FromSpec(const CommandSpec& set) {
   const ValueSpec& v = set.request;
@@ -72,22 +60,6 @@ ParameterDefinition FromSpec(const CommandSpec& set) {
   return d;
 }
 
-std::optional<uint32_t> ParseId(std::string_view t) {
-  int base = 10;
-  if (t.size() > 2 && t[0] == '0' && (t[1] == 'x' || t[1] == 'X')) {
-    t.remove_prefix(2);
-    base = 16;
-  } else if (t.size() > 1 && (t.back() == 'h' || t.back() == 'H')) {
-    t.remove_suffix(1);
-    base = 16;
-  }
-  uint32_t v = 0;
-  if (t.empty()) return std::nullopt;
-  const auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), v, base);
-  if (ec != std::errc() || p != t.data() + t.size()) return std::nullopt;
-  return v;
-}
-
 class LinMotDevicenetCatalogue final : public ParameterCatalogue {
  public:
   LinMotDevicenetCatalogue() {
@@ -99,7 +71,7 @@ class LinMotDevicenetCatalogue final : public ParameterCatalogue {
   const std::vector<ParameterDefinition>& Definitions() const override { return definitions_; }
 
   absl::StatusOr<ParameterDefinition> Find(std::string_view text) const override {
-    if (const std::optional<uint32_t> id = ParseId(text)) {
+    if (const std::optional<uint32_t> id = ParseParameterId(text)) {
       for (const ParameterDefinition& d : definitions_) {
         if (d.id == *id || d.id == *id + 1) return d;  // the Set ID or its Get half
       }
@@ -107,9 +79,9 @@ class LinMotDevicenetCatalogue final : public ParameterCatalogue {
       for (const ParameterDefinition& d : definitions_) {
         const CommandSpec* set = FindCommand(static_cast<uint8_t>(d.id));
         const CommandSpec* get = FindCommand(static_cast<uint8_t>(d.id - 1));
-        if (EqualsIgnoreCase(text, set->key()) || EqualsIgnoreCase(text, set->name) ||
+        if (NameEqualsIgnoreCase(text, set->key()) || NameEqualsIgnoreCase(text, set->name) ||
             (get != nullptr &&
-             (EqualsIgnoreCase(text, get->key()) || EqualsIgnoreCase(text, get->name)))) {
+             (NameEqualsIgnoreCase(text, get->key()) || NameEqualsIgnoreCase(text, get->name)))) {
           return d;
         }
       }

@@ -13,9 +13,12 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "adapters/core/log.h"
+#include "adapters/core/motion_limits.h"
 #include "adapters/core/status.h"
 #include "adapters/core/units.h"
+#include "adapters/linmot/common/command_status.h"
 #include "adapters/linmot/common/session_peer.h"
+#include "adapters/linmot/common/status_publish.h"
 
 namespace drivegw::linmot::devicenet {
 namespace {
@@ -24,8 +27,6 @@ constexpr uint16_t kRun = ControlWord::kRunRequest;
 constexpr uint16_t kStop = ControlWord::kStopRequest;
 constexpr uint16_t kInit = ControlWord::kInitRequest;
 
-// Heartbeat: an unchanged status is republished at least this often (dashboard liveness).
-constexpr Duration kHeartbeat = std::chrono::seconds(1);
 // Velocity from actual positions at least this far apart (decision 982).
 constexpr Duration kMinVelocityWindow = std::chrono::milliseconds(20);
 // Below this measured speed an axis outside In Position counts as standing (decision 982):
@@ -64,44 +65,6 @@ absl::StatusCode CodeFor(uint16_t coded) {
     default:
       return absl::StatusCode::kFailedPrecondition;
   }
-}
-
-bool SameStatus(const DriveStatus& a, const DriveStatus& b) {
-  return a.state == b.state && a.native.main_state == b.native.main_state &&
-         a.native.sub_state == b.native.sub_state && a.native.status_word == b.native.status_word &&
-         a.native.warn_word == b.native.warn_word && a.position_mm == b.position_mm &&
-         a.velocity_mm_s == b.velocity_mm_s && a.demand_position_mm == b.demand_position_mm &&
-         a.homed == b.homed && a.in_target == b.in_target && a.motion_active == b.motion_active &&
-         a.warnings == b.warnings && a.fault.code == b.fault.code && a.fault.fatal == b.fault.fatal;
-}
-
-absl::Status CheckLimit(const std::string& field, double value, double axis_limit,
-                        const char* axis_field) {
-  if (!std::isfinite(value) || value <= 0) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": ", value, " must be positive"));
-  }
-  if (value > axis_limit) {
-    return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " exceeds axis limit ",
-                                              axis_limit, " (", axis_field, ")"));
-  }
-  return absl::OkStatus();
-}
-
-absl::Status CheckPosition(const std::string& field, double value, double target,
-                           const AxisConfig& axis) {
-  if (!std::isfinite(value)) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": ", value, " is not a finite number"));
-  }
-  if (target < axis.min_mm || target > axis.max_mm) {
-    if (value == target) {
-      return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " is outside the axis range [",
-                                                axis.min_mm, ", ", axis.max_mm, "]"));
-    }
-    return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " takes the axis to ", target,
-                                              ", outside the axis range [", axis.min_mm, ", ",
-                                              axis.max_mm, "]"));
-  }
-  return absl::OkStatus();
 }
 
 // Rounds a profile limit down (the drive never exceeds what was commanded, decision 984) and
@@ -689,22 +652,11 @@ DriveStatus LinMotDnDrive::BuildStatusLocked() const {
 void LinMotDnDrive::PublishLocked(bool force) {
   DriveStatus s = BuildStatusLocked();
   const TimePoint now = clock_.Now();
-  if (!force && published_ && SameStatus(*published_, s) && now - published_at_ < kHeartbeat) {
+  if (WithinHeartbeat(force, published_, published_at_, now) && SameStatus(*published_, s)) {
     return;
   }
-  if (!published_ || published_->state != s.state) {
-    auto operational = [](DriveState d) {
-      return d == DriveState::kEnabled || d == DriveState::kMoving || d == DriveState::kHoming;
-    };
-    const bool churn = published_ && operational(published_->state) && operational(s.state);
-    (churn ? log::Debug : log::Info)(
-        "drive_state", log::Fields()
-                           .Add("drive", name_)
-                           .Add("family", "linmot-devicenet")
-                           .Add("from", published_ ? ToString(published_->state) : "-")
-                           .Add("to", ToString(s.state))
-                           .Add("status_low", Hex16(sample_.low.raw)));
-  }
+  LogStateChange(published_, s, name_, "linmot-devicenet", "status_low",
+                 [&] { return Hex16(sample_.low.raw); });
   published_ = s;
   published_at_ = now;
   PublishStatus(std::move(s));
@@ -745,20 +697,9 @@ absl::Status LinMotDnDrive::WaitOnlineLocked(std::unique_lock<std::mutex>& lock,
 
 absl::Status LinMotDnDrive::WaitFailure(Wait w, const std::string& operation,
                                         const std::string& detail) const {
-  const std::string where = absl::StrCat("drive '", name_, "': ", operation, ": ");
-  switch (w) {
-    case Wait::kReached:
-      return absl::OkStatus();
-    case Wait::kDeadline:
-      return absl::DeadlineExceededError(absl::StrCat(where, detail));
-    case Wait::kOffline:
-      return absl::UnavailableError(absl::StrCat(where, "link to ", endpoint(), " lost",
-                                                 link_reason_.empty() ? "" : " (", link_reason_,
-                                                 link_reason_.empty() ? "" : ")"));
-    case Wait::kInactive:
-      return absl::FailedPreconditionError(absl::StrCat(where, "drive deactivated"));
-  }
-  return absl::InternalError(where);
+  return WaitPeerStatus(
+      w, absl::StrCat("drive '", name_, "': ", operation, ": "), detail, endpoint(),
+      [&] { return link_reason_.empty() ? std::string() : absl::StrCat(" (", link_reason_, ")"); });
 }
 
 absl::StatusOr<CommandInfo> LinMotDnDrive::Finish(uint64_t id, const absl::Status& status) {
@@ -1060,12 +1001,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::Home() {
     UpdateCommand(cmd.id, CommandState::kError, std::string(s.message()));
     return s;
   }
-  std::optional<CommandInfo> info = GetCommand(cmd.id);
-  if (!info) return absl::InternalError("Home: command lost");
-  if (info->state == CommandState::kError || info->state == CommandState::kAborted) {
-    return absl::AbortedError(absl::StrCat("drive '", name_, "': Home: ", info->message));
-  }
-  return *info;
+  return StartedHome(GetCommand(cmd.id), absl::StrCat("drive '", name_, "': Home: "));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1112,12 +1048,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
   };
   auto limits = [&](const std::string& k, double v, double a, double d, Plan& p) -> absl::Status {
     if (d == 0) d = a;
-    DGW_RETURN_IF_ERROR(
-        CheckLimit(k + ".velocity_mm_s", v, axis.max_velocity_mm_s, "axis.max_velocity_mm_s"));
-    DGW_RETURN_IF_ERROR(CheckLimit(k + ".acceleration_mm_s2", a, axis.max_acceleration_mm_s2,
-                                   "axis.max_acceleration_mm_s2"));
-    DGW_RETURN_IF_ERROR(CheckLimit(k + ".deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
-                                   "axis.max_acceleration_mm_s2"));
+    DGW_RETURN_IF_ERROR(CheckMoveProfile(k, v, a, d, axis));
     DGW_ASSIGN_OR_RETURN(p.speed, SpeedToDn(k + ".velocity_mm_s", v));
     const std::string acc_field = d < a ? k + ".deceleration_mm_s2" : k + ".acceleration_mm_s2";
     DGW_ASSIGN_OR_RETURN(p.acceleration, AccelerationToDn(acc_field, std::min(a, d)));
@@ -1130,7 +1061,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
   absl::Status built = [&]() -> absl::Status {
     if (const auto* m = std::get_if<MoveAbsolute>(&cmd)) {
       DGW_RETURN_IF_ERROR(
-          CheckPosition("move_absolute.position_mm", m->position_mm, m->position_mm, axis));
+          CheckAxisPosition("move_absolute.position_mm", m->position_mm, m->position_mm, axis));
       DGW_RETURN_IF_ERROR(limits("move_absolute", m->velocity_mm_s, m->acceleration_mm_s2,
                                  m->deceleration_mm_s2, plan));
       DGW_ASSIGN_OR_RETURN(plan.target, PositionToDn("move_absolute.position_mm", m->position_mm));
@@ -1152,8 +1083,8 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
       DGW_ASSIGN_OR_RETURN(const int32_t setpoint, GetLocked(lock, CommandId::kGetPositionSetpoint,
                                                              options_.motor, request_deadline));
       const int32_t target = setpoint + increment;
-      DGW_RETURN_IF_ERROR(
-          CheckPosition("move_relative.distance_mm", m->distance_mm, PositionFromDn(target), axis));
+      DGW_RETURN_IF_ERROR(CheckAxisPosition("move_relative.distance_mm", m->distance_mm,
+                                            PositionFromDn(target), axis));
       if (target < -kPositionLimit || target > kPositionLimit) {
         return absl::OutOfRangeError(absl::StrCat(
             "move_relative.distance_mm: ", m->distance_mm, " takes the set-point to ", target,
@@ -1186,8 +1117,8 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunMove(const MotionCommand& cmd) {
     // stopping point v²/2d ahead with the filter acceleration = d.
     const double d =
         stop.deceleration_mm_s2 == 0 ? axis.max_acceleration_mm_s2 : stop.deceleration_mm_s2;
-    DGW_RETURN_IF_ERROR(CheckLimit("stop.deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
-                                   "axis.max_acceleration_mm_s2"));
+    DGW_RETURN_IF_ERROR(CheckProfileLimit("stop.deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
+                                          "axis.max_acceleration_mm_s2"));
     DGW_ASSIGN_OR_RETURN(plan.acceleration, AccelerationToDn("stop.deceleration_mm_s2", d));
     plan.a_mm_s2 = plan.acceleration * kMmS2PerAccelerationIncrement;
     const double stop_mm = std::clamp(actual_mm + v0 * std::fabs(v0) / (2 * plan.a_mm_s2),

@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "adapters/core/curve_run.h"
+#include "adapters/core/curve_runner.h"
 #include "adapters/core/log.h"
 #include "adapters/core/status.h"
 #include "adapters/linmot/devicenet/drive.h"
@@ -29,10 +30,6 @@ constexpr int kSlotShare = 5;
 constexpr int64_t kSpeedMin = 6;
 constexpr int64_t kSpeedMax = 24576;
 constexpr int64_t kAccelerationMax = 1536;
-
-absl::Status Annotated(const absl::Status& s, const std::string& prefix) {
-  return absl::Status(s.code(), absl::StrCat(prefix, s.message()));
-}
 
 // The leg's speed in 0x51 increments: rounded up (rounding down would make every leg late; the
 // target is absolute, so a leg can only arrive early and wait), at least the command's minimum,
@@ -56,7 +53,7 @@ absl::StatusOr<uint16_t> LegSpeed(const std::string& field, double v_mm_s, doubl
 }  // namespace
 
 // The legs after the first one, at their start times; then the wait for the end point.
-class LinMotDnDrive::CurveRunner {
+class LinMotDnDrive::CurveRunner final : public CurveRunnerBase {
  public:
   struct Leg {
     double start_s = 0;  // since t0
@@ -67,8 +64,8 @@ class LinMotDnDrive::CurveRunner {
 
   CurveRunner(LinMotDnDrive* drive, uint64_t id, std::vector<Leg> legs, double duration_s,
               double tolerance_mm, TimePoint t0, uint64_t accepted_gen, uint64_t connection)
-      : drive_(drive),
-        id_(id),
+      : CurveRunnerBase(id),
+        drive_(drive),
         legs_(std::move(legs)),
         duration_s_(duration_s),
         tolerance_mm_(tolerance_mm),
@@ -76,24 +73,7 @@ class LinMotDnDrive::CurveRunner {
         connection_(connection),
         target_(legs_.front().target),
         accepted_gen_(accepted_gen) {}
-  ~CurveRunner() { Stop(); }
-  CurveRunner(const CurveRunner&) = delete;
-  CurveRunner& operator=(const CurveRunner&) = delete;
-
-  void Start() {
-    thread_ = std::thread([this] { Run(); });
-  }
-  void Stop() {
-    {
-      std::lock_guard lock(drive_->mu_);
-      stop_ = true;
-    }
-    drive_->cv_.notify_all();
-    Join();
-  }
-  void Join() {
-    if (thread_.joinable()) thread_.join();
-  }
+  ~CurveRunner() override { Stop(); }
 
  private:
   TimePoint At(double s) const { return t0_ + FromSeconds(s); }
@@ -101,8 +81,8 @@ class LinMotDnDrive::CurveRunner {
 
   // With mu_ held: the handle is over (superseded, ended) or the drive goes.
   bool OverLocked() const {
-    if (stop_ || !drive_->active_ || drive_->curve_command_ != id_) return true;
-    const auto info = drive_->GetCommand(id_);
+    if (stop_ || !drive_->active_ || drive_->curve_command_ != id()) return true;
+    const auto info = drive_->GetCommand(id());
     return !info || IsFinal(info->state);
   }
   // With mu_ held: ends the handle (progress 1 first when it is DONE).
@@ -110,11 +90,11 @@ class LinMotDnDrive::CurveRunner {
     if (OverLocked()) return;
     drive_->curve_command_.reset();
     drive_->PublishLocked(true);  // no longer MOVING for the curve
-    if (state == CommandState::kDone) drive_->UpdateProgress(id_, 1);
-    drive_->UpdateCommand(id_, state, message);
+    if (state == CommandState::kDone) drive_->UpdateProgress(id(), 1);
+    drive_->UpdateCommand(id(), state, message);
     log::Debug("devicenet_curve_end", log::Fields()
                                           .Add("drive", drive_->name_)
-                                          .Add("command", id_)
+                                          .Add("command", id())
                                           .Add("state", ToString(state))
                                           .Add("message", message));
   }
@@ -122,10 +102,10 @@ class LinMotDnDrive::CurveRunner {
   bool CheckLocked();
   // Sends leg k under op_mu_ (after any Move that got there first); false when the run is over.
   bool SendLeg(size_t k);
-  void Run();
+  void Run() override;
+  void RequestStop() override { SetStopFlag(drive_->mu_, drive_->cv_, stop_); }
 
   LinMotDnDrive* const drive_;
-  const uint64_t id_;
   const std::vector<Leg> legs_;
   const double duration_s_;
   const double tolerance_mm_;
@@ -135,7 +115,6 @@ class LinMotDnDrive::CurveRunner {
   bool stop_ = false;
   int16_t target_ = 0;         // the newest set-point the drive echoed
   uint64_t accepted_gen_ = 0;  // the poll generation that echoed it
-  std::thread thread_;
 };
 
 bool LinMotDnDrive::CurveRunner::CheckLocked() {
@@ -228,7 +207,7 @@ void LinMotDnDrive::CurveRunner::Run() {
         d.cv_.wait_for(lock, due - now);
       }
     }
-    d.UpdateProgress(id_, static_cast<double>(k) / static_cast<double>(legs()));
+    d.UpdateProgress(id(), static_cast<double>(k) / static_cast<double>(legs()));
     if (!SendLeg(k)) return;
   }
   // The end: In Position (the drive's window around the last set-point, §7.4) in a response
@@ -282,12 +261,7 @@ bool LinMotDnDrive::CurveOpenLocked() const {
 }
 
 void LinMotDnDrive::StopCurveRunner() {
-  std::shared_ptr<CurveRunner> runner;
-  {
-    std::lock_guard lock(curve_mu_);
-    runner = curve_;
-  }
-  if (runner) runner->Stop();
+  StopRunner(curve_mu_, curve_);
   std::lock_guard lock(mu_);
   if (curve_command_) UpdateCommand(*curve_command_, CommandState::kAborted, "drive deactivated");
   curve_command_.reset();
@@ -299,12 +273,9 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
   DGW_RETURN_IF_ERROR(RequireActive("RunCurve"));
   const std::string prefix = absl::StrCat("drive '", name_, "': RunCurve: ");
   const double tolerance_mm = options.start_tolerance_mm;
-  if (!std::isfinite(tolerance_mm) || tolerance_mm < 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(prefix, "start_tolerance_mm: ", tolerance_mm, " must be >= 0"));
-  }
+  DGW_RETURN_IF_ERROR(CheckStartTolerance(prefix, tolerance_mm));
   auto samples = SampleCurve(curve);
-  if (!samples.ok()) return Annotated(samples.status(), prefix);
+  if (!samples.ok()) return PrefixedStatus(samples.status(), prefix);
   const double duration_s =
       samples->time_step_s * static_cast<double>(samples->position_mm.size() - 1);
 
@@ -323,7 +294,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
       AccelerationToDn("axis.max_acceleration_mm_s2",
                        std::min(axis.max_acceleration_mm_s2, static_cast<double>(kAccelerationMax) *
                                                                  kMmS2PerAccelerationIncrement));
-  if (!acceleration.ok()) return Annotated(acceleration.status(), prefix);
+  if (!acceleration.ok()) return PrefixedStatus(acceleration.status(), prefix);
   std::vector<CurveRunner::Leg> legs;
   double prev_end_s = 0;
   for (size_t k = 0; k < segments.size(); ++k) {
@@ -338,10 +309,10 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
     CurveRunner::Leg leg;
     leg.start_s = prev_end_s;
     auto target = PositionToDn(field + ".position_mm", seg.position_mm);
-    if (!target.ok()) return Annotated(target.status(), prefix);
+    if (!target.ok()) return PrefixedStatus(target.status(), prefix);
     leg.target = *target;
     auto speed = LegSpeed(field + ".velocity_mm_s", seg.velocity_mm_s, axis.max_velocity_mm_s);
-    if (!speed.ok()) return Annotated(speed.status(), prefix);
+    if (!speed.ok()) return PrefixedStatus(speed.status(), prefix);
     leg.speed = *speed;
     // Leg 0 always sends its set-point: from then on the drive's set-point is the curve's.
     leg.moves = k == 0 || leg.target != legs.back().target;
@@ -350,11 +321,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
   }
 
   // A curve still running refuses (Stop or Move first); one that ended lets go of its thread.
-  std::shared_ptr<CurveRunner> previous;
-  {
-    std::lock_guard lock(curve_mu_);
-    previous = curve_;
-  }
+  const std::shared_ptr<CurveRunner> previous = LoadRunner(curve_mu_, curve_);
   {
     std::lock_guard lock(mu_);
     if (CurveOpenLocked()) {
@@ -447,10 +414,7 @@ absl::StatusOr<CommandInfo> LinMotDnDrive::RunCurve(const Curve& curve,
                   .Add("min_leg_ms", min_leg_s * 1000)
                   .Add("acceleration", static_cast<uint64_t>(*acceleration)));
   }
-  {
-    std::lock_guard lock(curve_mu_);
-    curve_ = runner;
-  }
+  StoreRunner(curve_mu_, curve_, runner);
   runner->Start();
   std::optional<CommandInfo> result = GetCommand(id);
   if (!result) return absl::InternalError(prefix + "command lost");

@@ -2,6 +2,8 @@
 #include "adapters/linmot/devicenet/factory.h"
 
 #include "absl/strings/str_cat.h"
+#include "adapters/core/drive_config_check.h"
+#include "adapters/core/status.h"
 #include "adapters/linmot/devicenet/codec.h"
 #include "adapters/linmot/devicenet/drive.h"
 #include "adapters/transport/can_channel.h"
@@ -41,19 +43,7 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateLinMotDnDrive(const DriveConfig& co
         absl::StrCat(where, ".mac_id: ", *config.mac_id, " is the gateway's own MAC ID on ",
                      transport::CanSpecString(can), " (decision 981)"));
   }
-  const TimeoutConfig& t = config.timeouts;
-  for (const auto& [field, value] : {std::pair{"request", t.request}, std::pair{"accept", t.accept},
-                                     std::pair{"homing", t.homing}}) {
-    if (value <= std::chrono::milliseconds(0)) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(where, ".timeouts.", field, ": ", value.count(), " ms must be positive"));
-    }
-  }
-  if (!(config.axis.min_mm < config.axis.max_mm)) {
-    return absl::InvalidArgumentError(absl::StrCat(where, ".axis.min_mm: ", config.axis.min_mm,
-                                                   " must be below axis.max_mm ",
-                                                   config.axis.max_mm));
-  }
+  DGW_RETURN_IF_ERROR(CheckTimeoutsAndAxis(config, where));
   // §8.4: set-points are ±32256 increments of 1/51.2 mm (±630 mm).
   constexpr double kStroke = 32256 / kPositionIncrementsPerMm;
   if (config.axis.min_mm < -kStroke || config.axis.max_mm > kStroke) {

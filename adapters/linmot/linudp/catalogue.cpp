@@ -3,7 +3,6 @@
 // everything else is "unknown" with the 32-bit range the RTC channel carries (decision 705).
 #include "adapters/linmot/linudp/catalogue.h"
 
-#include <charconv>
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -12,6 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "adapters/linmot/common/parameter_id.h"
 #include "adapters/linmot/linudp/factory.h"
 
 namespace drivegw::linmot::linudp {
@@ -172,23 +172,12 @@ ParameterDefinition Raw(uint32_t upid) {
   return d;
 }
 
-// "0x14BE", "14BEh", decimal "5310".
+// "0x14BE", "14BEh", decimal "5310"; a UPID is 16 bits.
 std::optional<uint32_t> ParseUpid(std::string_view t) {
-  int base = 10;
-  if (t.size() > 2 && t[0] == '0' && (t[1] == 'x' || t[1] == 'X')) {
-    t.remove_prefix(2);
-    base = 16;
-  } else if (t.size() > 1 && (t.back() == 'h' || t.back() == 'H')) {
-    t.remove_suffix(1);
-    base = 16;
-  }
-  uint32_t v = 0;
-  if (t.empty()) return std::nullopt;
-  const auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), v, base);
-  if (ec != std::errc() || p != t.data() + t.size() || v > 0xFFFF) return std::nullopt;
+  const std::optional<uint32_t> v = ParseParameterId(t);
+  if (!v || *v > 0xFFFF) return std::nullopt;
   return v;
 }
-
 class LinMotCatalogue final : public ParameterCatalogue {
  public:
   LinMotCatalogue() {

@@ -9,9 +9,12 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "adapters/core/log.h"
+#include "adapters/core/motion_limits.h"
 #include "adapters/core/status.h"
 #include "adapters/core/units.h"
+#include "adapters/linmot/common/command_status.h"
 #include "adapters/linmot/common/session_peer.h"
+#include "adapters/linmot/common/status_publish.h"
 #include "adapters/linmot/linudp/factory.h"
 #include "adapters/linmot/linudp/rtc_error.h"
 #include "adapters/linmot/mc/control_word.h"
@@ -33,9 +36,6 @@ bool IsFaultState(uint8_t ms) {
 // States with the power stage off (0-4): the end of Disable.
 bool IsPowerOff(uint8_t ms) { return ms <= kState(MainState::kError); }
 
-// Heartbeat: an unchanged status is republished at least this often (dashboard liveness).
-constexpr Duration kHeartbeat = std::chrono::seconds(1);
-
 // The count nibble of an MC block's header (linmot-linudp.md §3.4: byte 0 = sub ID << 4 | count).
 uint8_t BlockCount(const mc::McBlock& block) {
   return mc::Header::FromRaw(static_cast<uint16_t>(block[0] | (block[1] << 8))).count;
@@ -55,46 +55,9 @@ double PositionFromWire(int64_t v) { return static_cast<double>(v) / units::kPos
 
 std::string Hex16(uint16_t v) { return absl::StrFormat("0x%04X", v); }
 
-bool SameStatus(const DriveStatus& a, const DriveStatus& b) {
-  return a.state == b.state && a.native.main_state == b.native.main_state &&
-         a.native.sub_state == b.native.sub_state && a.native.status_word == b.native.status_word &&
-         a.native.warn_word == b.native.warn_word && a.position_mm == b.position_mm &&
-         a.velocity_mm_s == b.velocity_mm_s && a.demand_position_mm == b.demand_position_mm &&
-         a.homed == b.homed && a.in_target == b.in_target && a.motion_active == b.motion_active &&
-         a.warnings == b.warnings && a.fault.code == b.fault.code && a.fault.fatal == b.fault.fatal;
-}
-
-// Checks a profile limit: positive (D-42: the gateway never sends a zero limit) and within the
-// axis limit.
-absl::Status CheckLimit(const std::string& field, double value, double axis_limit,
-                        const char* axis_field) {
-  if (!std::isfinite(value) || value <= 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(field, ": ", value, " must be positive (linmot-mc.md D-42)"));
-  }
-  if (value > axis_limit) {
-    return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " exceeds axis limit ",
-                                              axis_limit, " (", axis_field, ")"));
-  }
-  return absl::OkStatus();
-}
-
-absl::Status CheckPosition(const std::string& field, double value, double target,
-                           const AxisConfig& axis) {
-  if (!std::isfinite(value)) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": ", value, " is not a finite number"));
-  }
-  if (target < axis.min_mm || target > axis.max_mm) {
-    if (value == target) {
-      return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " is outside the axis range [",
-                                                axis.min_mm, ", ", axis.max_mm, "]"));
-    }
-    return absl::OutOfRangeError(absl::StrCat(field, ": ", value, " takes the axis to ", target,
-                                              ", outside the axis range [", axis.min_mm, ", ",
-                                              axis.max_mm, "]"));
-  }
-  return absl::OkStatus();
-}
+// Profile limits are checked as in every family (motion_limits.h); LinUDP's "must be positive"
+// cites D-42: the gateway never sends a zero limit.
+constexpr char kD42Note[] = " (linmot-mc.md D-42)";
 
 // Time from rest over `distance` with a trapezoid or triangle (linmot-mc.md §6.1 step 5, u = 0).
 double TrapezoidSeconds(double distance, double vmax, double acc, double dec) {
@@ -619,28 +582,15 @@ LinMotUdpDrive::StatusInputs LinMotUdpDrive::StatusInputsLocked() const {
 void LinMotUdpDrive::PublishLocked(bool force) {
   const TimePoint now = clock_.Now();
   const StatusInputs inputs = StatusInputsLocked();
-  if (!force && published_ && published_inputs_ == inputs && now - published_at_ < kHeartbeat) {
+  if (published_inputs_ == inputs && WithinHeartbeat(force, published_, published_at_, now)) {
     return;  // BuildStatusLocked would give the very status published last (SameStatus)
   }
   published_inputs_ = inputs;
   DriveStatus s = BuildStatusLocked();
-  if (!force && published_ && SameStatus(*published_, s) && now - published_at_ < kHeartbeat) {
+  if (WithinHeartbeat(force, published_, published_at_, now) && SameStatus(*published_, s)) {
     return;
   }
-  if (!published_ || published_->state != s.state) {
-    // Operational churn (ENABLED <-> MOVING <-> HOMING) is per command: debug; the rest is info.
-    auto operational = [](DriveState d) {
-      return d == DriveState::kEnabled || d == DriveState::kMoving || d == DriveState::kHoming;
-    };
-    const bool churn = published_ && operational(published_->state) && operational(s.state);
-    (churn ? log::Debug : log::Info)(
-        "drive_state", log::Fields()
-                           .Add("drive", name_)
-                           .Add("family", "linmot")
-                           .Add("from", published_ ? ToString(published_->state) : "-")
-                           .Add("to", ToString(s.state))
-                           .Add("main_state", s.native.main_state));
-  }
+  LogStateChange(published_, s, name_, "linmot", "main_state", [&] { return s.native.main_state; });
   published_ = s;
   published_at_ = now;
   PublishStatus(std::move(s));
@@ -700,19 +650,8 @@ absl::Status LinMotUdpDrive::WaitOnlineLocked(std::unique_lock<std::mutex>& lock
 
 absl::Status LinMotUdpDrive::WaitFailure(Wait w, const char* operation,
                                          const std::string& detail) const {
-  const std::string where = absl::StrCat("drive '", name_, "': ", operation, ": ");
-  switch (w) {
-    case Wait::kReached:
-      return absl::OkStatus();
-    case Wait::kDeadline:
-      return absl::DeadlineExceededError(absl::StrCat(where, detail));
-    case Wait::kOffline:
-      return absl::UnavailableError(
-          absl::StrCat(where, "link to ", endpoint(), " lost (", detail, ")"));
-    case Wait::kInactive:
-      return absl::FailedPreconditionError(absl::StrCat(where, "drive deactivated"));
-  }
-  return absl::InternalError(where);
+  return WaitPeerStatus(w, absl::StrCat("drive '", name_, "': ", operation, ": "), detail,
+                        endpoint(), [&] { return absl::StrCat(" (", detail, ")"); });
 }
 
 absl::StatusOr<CommandInfo> LinMotUdpDrive::Finish(uint64_t id, const absl::Status& status) {
@@ -923,12 +862,7 @@ absl::StatusOr<CommandInfo> LinMotUdpDrive::Home() {
     UpdateCommand(cmd.id, CommandState::kError, std::string(s.message()));
     return s;
   }
-  std::optional<CommandInfo> info = GetCommand(cmd.id);
-  if (!info) return absl::InternalError("Home: command lost");
-  if (info->state == CommandState::kError || info->state == CommandState::kAborted) {
-    return absl::AbortedError(absl::StrCat("drive '", name_, "': Home: ", info->message));
-  }
-  return *info;
+  return StartedHome(GetCommand(cmd.id), absl::StrCat("drive '", name_, "': Home: "));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -948,12 +882,7 @@ absl::StatusOr<mc::McCommand> LinMotUdpDrive::BuildMotion(const MotionCommand& c
   auto profile = [&](const std::string& kind, double v, double a,
                      double d) -> absl::StatusOr<Profile> {
     if (d == 0) d = a;
-    DGW_RETURN_IF_ERROR(
-        CheckLimit(kind + ".velocity_mm_s", v, axis.max_velocity_mm_s, "axis.max_velocity_mm_s"));
-    DGW_RETURN_IF_ERROR(CheckLimit(kind + ".acceleration_mm_s2", a, axis.max_acceleration_mm_s2,
-                                   "axis.max_acceleration_mm_s2"));
-    DGW_RETURN_IF_ERROR(CheckLimit(kind + ".deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
-                                   "axis.max_acceleration_mm_s2"));
+    DGW_RETURN_IF_ERROR(CheckMoveProfile(kind, v, a, d, axis, kD42Note));
     Profile p{0, 0, 0, v, a, d};
     DGW_ASSIGN_OR_RETURN(p.v, units::VelocityToWire(kind + ".velocity_mm_s", v));
     DGW_ASSIGN_OR_RETURN(p.a, units::AccelerationToWire(kind + ".acceleration_mm_s2", a));
@@ -963,7 +892,7 @@ absl::StatusOr<mc::McCommand> LinMotUdpDrive::BuildMotion(const MotionCommand& c
 
   if (const auto* m = std::get_if<MoveAbsolute>(&cmd)) {
     DGW_RETURN_IF_ERROR(
-        CheckPosition("move_absolute.position_mm", m->position_mm, m->position_mm, axis));
+        CheckAxisPosition("move_absolute.position_mm", m->position_mm, m->position_mm, axis));
     DGW_ASSIGN_OR_RETURN(const Profile p, profile("move_absolute", m->velocity_mm_s,
                                                   m->acceleration_mm_s2, m->deceleration_mm_s2));
     DGW_ASSIGN_OR_RETURN(const int32_t target,
@@ -974,8 +903,8 @@ absl::StatusOr<mc::McCommand> LinMotUdpDrive::BuildMotion(const MotionCommand& c
   }
   if (const auto* m = std::get_if<MoveRelative>(&cmd)) {
     // Decision 704: 011x Increment Dem Pos, the target is the demand position now + distance.
-    DGW_RETURN_IF_ERROR(CheckPosition("move_relative.distance_mm", m->distance_mm,
-                                      demand_mm + m->distance_mm, axis));
+    DGW_RETURN_IF_ERROR(CheckAxisPosition("move_relative.distance_mm", m->distance_mm,
+                                          demand_mm + m->distance_mm, axis));
     DGW_ASSIGN_OR_RETURN(const Profile p, profile("move_relative", m->velocity_mm_s,
                                                   m->acceleration_mm_s2, m->deceleration_mm_s2));
     DGW_ASSIGN_OR_RETURN(const int32_t increment,
@@ -1004,8 +933,8 @@ absl::StatusOr<mc::McCommand> LinMotUdpDrive::BuildMotion(const MotionCommand& c
   // Stop has no acceleration to fall back on: 0 means the axis' maximal acceleration.
   const double d =
       stop.deceleration_mm_s2 == 0 ? axis.max_acceleration_mm_s2 : stop.deceleration_mm_s2;
-  DGW_RETURN_IF_ERROR(CheckLimit("stop.deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
-                                 "axis.max_acceleration_mm_s2"));
+  DGW_RETURN_IF_ERROR(CheckProfileLimit("stop.deceleration_mm_s2", d, axis.max_acceleration_mm_s2,
+                                        "axis.max_acceleration_mm_s2", kD42Note));
   DGW_ASSIGN_OR_RETURN(const uint32_t dec, units::AccelerationToWire("stop.deceleration_mm_s2", d));
   needs_in_target = false;  // a stop ends where it ends: Motion Active = 0 is enough (§4.4)
   planned = FromSeconds(std::fabs(v0) / d);

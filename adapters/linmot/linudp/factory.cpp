@@ -2,6 +2,8 @@
 #include "adapters/linmot/linudp/factory.h"
 
 #include "absl/strings/str_cat.h"
+#include "adapters/core/drive_config_check.h"
+#include "adapters/core/status.h"
 #include "adapters/linmot/linudp/drive.h"
 #include "adapters/transport/endpoint.h"
 #include "adapters/transport/thread_scheduling.h"
@@ -58,19 +60,7 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateLinMotUdpDrive(const DriveConfig& c
       !s.ok()) {
     return s;
   }
-  const TimeoutConfig& t = config.timeouts;
-  for (const auto& [field, value] : {std::pair{"request", t.request}, std::pair{"accept", t.accept},
-                                     std::pair{"homing", t.homing}}) {
-    if (value <= std::chrono::milliseconds(0)) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(where, ".timeouts.", field, ": ", value.count(), " ms must be positive"));
-    }
-  }
-  if (!(config.axis.min_mm < config.axis.max_mm)) {
-    return absl::InvalidArgumentError(absl::StrCat(where, ".axis.min_mm: ", config.axis.min_mm,
-                                                   " must be below axis.max_mm ",
-                                                   config.axis.max_mm));
-  }
+  DGW_RETURN_IF_ERROR(CheckTimeoutsAndAxis(config, where));
   return std::unique_ptr<Drive>(new LinMotUdpDrive(config, clock));
 }
 

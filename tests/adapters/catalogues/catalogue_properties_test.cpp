@@ -195,6 +195,10 @@ TEST(LinMotDevicenetCatalogue, SetIdsGetHalvesAndNames) {
   EXPECT_EQ(cat->Find("0x50")->id, 0x51u);  // the Get half
   EXPECT_EQ(cat->Find("set_filter_max_speed")->id, 0x51u);
   EXPECT_EQ(cat->Find("Get Filter Max Speed")->id, 0x51u);
+  // Names in any ASCII case, ids as "0X51" or "51h" (NameEqualsIgnoreCase, ParseParameterId).
+  EXPECT_EQ(cat->Find("SET_FILTER_MAX_SPEED")->id, 0x51u);
+  EXPECT_EQ(cat->Find("0X51")->id, 0x51u);
+  EXPECT_EQ(cat->Find("51h")->id, 0x51u);
   auto acc = cat->Find("0x53");
   ASSERT_TRUE(acc.ok());
   EXPECT_EQ(acc->min, 1);  // decision 906: 1..1536
