@@ -179,6 +179,7 @@ absl::StatusOr<PeerId> Session::Register(const PeerOptions& o, SessionPeer* peer
                   1;
     health.backoff_min = std::chrono::duration_cast<std::chrono::milliseconds>(o.retry_min);
     health.backoff_max = std::chrono::duration_cast<std::chrono::milliseconds>(o.retry_max);
+    health.up_after = o.up_after;
     if (auto s = ValidateHealthConfig(health, absl::StrCat(where, ".health.")); !s.ok()) return s;
     p.health.emplace(health, clock_);
     p.reassembler = Reassembler(std::max(o.produced_size, kMaxFrameData));
