@@ -333,9 +333,10 @@ TEST(TrinamicSharedLineTest, DeadNeighbour_IsDownAndProbedAtItsBackoffOnly) {
   EXPECT_LE(dc.requests, dc.probes);
   EXPECT_GE(dc.requests + 1, dc.probes);
 
-  // It comes back: UP again after its next probe, the live one never noticed.
+  // It comes back: UP again after its next probe (up to 1.6 s away) and the hold before UP
+  // (health.up_after_ms, 3 s by default, decision 1432); the live one never noticed.
   line.server->SetUnitSilent(1, false);
-  const auto until = SessionClock::now() + 5s;
+  const auto until = SessionClock::now() + 10s;
   while (dead->health().state != HealthState::kUp && SessionClock::now() < until) {
     std::this_thread::sleep_for(20ms);
   }
