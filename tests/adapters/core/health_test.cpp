@@ -24,6 +24,17 @@ HealthConfig Config(int n, int min_ms, int max_ms, int up_after_ms = 0) {
   return c;
 }
 
+// The hold's edge, `left` before its end: 1 ms before, a success leaves the drive DEMOTED and
+// publishes nothing; at the end, a success makes it UP.
+void ExpectUpWhenTheHoldEnds(HealthModel& m, ManualClock& clock, milliseconds left) {
+  clock.Advance(left - milliseconds(1));
+  EXPECT_FALSE(m.RecordSuccess());
+  EXPECT_EQ(m.state(), HealthState::kDemoted);
+  clock.Advance(milliseconds(1));
+  EXPECT_TRUE(m.RecordSuccess());
+  EXPECT_EQ(m.state(), HealthState::kUp);
+}
+
 TEST(HealthConfig, DefaultHoldIsTheDocumentedOne) {
   EXPECT_EQ(HealthConfig{}.up_after, milliseconds(3000));  // docs/config.md, decision 1432
 }
@@ -48,17 +59,26 @@ TEST(HealthModel, ANeverAnsweringDriveGoesDownAtTheCount) {
   EXPECT_EQ(m.state(), HealthState::kDown);
 }
 
+// Without a hold (decision 1431) the next success is UP; with one (decision 1432) the hold counts
+// from the success that made it DEMOTED.
 TEST(HealthModel, RecoversFromDownThroughDemoted) {
-  ManualClock clock;
-  HealthModel m(Config(1, 100, 5000), clock);
-  m.RecordSuccess();
-  m.RecordFailure("misses");
-  ASSERT_EQ(m.state(), HealthState::kDown);
-  EXPECT_TRUE(m.RecordSuccess());
-  EXPECT_EQ(m.state(), HealthState::kDemoted);
-  EXPECT_EQ(m.info().reason, "recovering");
-  EXPECT_TRUE(m.RecordSuccess());
-  EXPECT_EQ(m.state(), HealthState::kUp);
+  for (const int hold_ms : {0, 1000}) {
+    SCOPED_TRACE(hold_ms);
+    ManualClock clock;
+    HealthModel m(Config(1, 100, 5000, hold_ms), clock);
+    m.RecordSuccess();
+    m.RecordFailure("misses");
+    ASSERT_EQ(m.state(), HealthState::kDown);
+    EXPECT_TRUE(m.RecordSuccess());
+    EXPECT_EQ(m.state(), HealthState::kDemoted);
+    EXPECT_EQ(m.info().reason, "recovering");
+    if (hold_ms == 0) {
+      EXPECT_TRUE(m.RecordSuccess());
+      EXPECT_EQ(m.state(), HealthState::kUp);
+    } else {
+      ExpectUpWhenTheHoldEnds(m, clock, milliseconds(hold_ms));
+    }
+  }
 }
 
 TEST(HealthModel, ProbeNotBeforeDelaysOnlyADownLink) {
@@ -201,13 +221,8 @@ TEST(HealthModelHold, OneFailureThenSuccesses_DemotedUntilTheHoldPassed) {
     clock.Advance(milliseconds(10));  // up to 990 ms after the first success
     EXPECT_FALSE(m.RecordSuccess()) << i;
   }
-  clock.Advance(milliseconds(9));
-  EXPECT_FALSE(m.RecordSuccess());
-  EXPECT_EQ(m.state(), HealthState::kDemoted);
   EXPECT_EQ(m.info().consecutive_failures, 1u);
-  clock.Advance(milliseconds(1));  // 1000 ms clean
-  EXPECT_TRUE(m.RecordSuccess());
-  EXPECT_EQ(m.state(), HealthState::kUp);
+  ExpectUpWhenTheHoldEnds(m, clock, milliseconds(10));  // 1000 ms clean
   EXPECT_EQ(m.info().consecutive_failures, 0u);
   EXPECT_EQ(m.info().reason, "");
 }
@@ -223,49 +238,26 @@ TEST(HealthModelHold, AFailureInsideTheHoldRestartsIt) {
   clock.Advance(milliseconds(200));            // 1100 ms after the first hold started
   EXPECT_FALSE(m.RecordSuccess());             // the hold restarts here
   EXPECT_EQ(m.state(), HealthState::kDemoted);
-  clock.Advance(milliseconds(999));
-  EXPECT_FALSE(m.RecordSuccess());
-  clock.Advance(milliseconds(1));
-  EXPECT_TRUE(m.RecordSuccess());
-  EXPECT_EQ(m.state(), HealthState::kUp);
+  ExpectUpWhenTheHoldEnds(m, clock, milliseconds(1000));
 }
 
-TEST(HealthModelHold, TheFirstReplyIsUpAtOnceEvenAfterFailures) {
+// Connecting is not flapping: the first reply is UP at once, also after failures below the
+// count; a drive that went DOWN before its first reply is recovering and waits the hold.
+TEST(HealthModelHold, TheFirstReplyIsUpAtOnceUnlessTheDriveWentDownFirst) {
   ManualClock clock;
-  HealthModel m(Config(3, 100, 5000, 1000), clock);
-  EXPECT_TRUE(m.RecordFailure("time-outs"));  // connecting: the count is published
-  EXPECT_TRUE(m.RecordFailure("time-outs"));
-  EXPECT_EQ(m.info().consecutive_failures, 2u);
-  EXPECT_TRUE(m.RecordSuccess());
-  EXPECT_EQ(m.state(), HealthState::kUp);
-}
-
-TEST(HealthModelHold, RecoveryFromDownWaitsTheHoldFromItsFirstSuccess) {
-  ManualClock clock;
-  HealthModel m(Config(1, 100, 5000, 1000), clock);
-  m.RecordSuccess();
-  m.RecordFailure("misses");
-  ASSERT_EQ(m.state(), HealthState::kDown);
-  EXPECT_TRUE(m.RecordSuccess());
-  EXPECT_EQ(m.state(), HealthState::kDemoted);
-  EXPECT_EQ(m.info().reason, "recovering");
-  clock.Advance(milliseconds(999));
-  EXPECT_FALSE(m.RecordSuccess());
-  EXPECT_EQ(m.state(), HealthState::kDemoted);
-  clock.Advance(milliseconds(1));
-  EXPECT_TRUE(m.RecordSuccess());
-  EXPECT_EQ(m.state(), HealthState::kUp);
-}
-
-TEST(HealthModelHold, ADriveDownSinceStartIsRecoveringNotConnecting) {
-  ManualClock clock;
-  HealthModel m(Config(2, 100, 5000, 1000), clock);
-  m.RecordFailure("time-outs");
-  m.RecordFailure("time-outs");
-  ASSERT_EQ(m.state(), HealthState::kDown);
-  EXPECT_TRUE(m.RecordSuccess());
-  EXPECT_FALSE(m.RecordSuccess());
-  EXPECT_EQ(m.state(), HealthState::kDemoted);
+  HealthModel connecting(Config(3, 100, 5000, 1000), clock);
+  HealthModel down_first(Config(2, 100, 5000, 1000), clock);
+  for (HealthModel* m : {&connecting, &down_first}) {
+    EXPECT_TRUE(m->RecordFailure("time-outs"));  // the count is published
+    EXPECT_TRUE(m->RecordFailure("time-outs"));
+    EXPECT_EQ(m->info().consecutive_failures, 2u);
+    EXPECT_TRUE(m->RecordSuccess());
+  }
+  EXPECT_EQ(connecting.state(), HealthState::kUp);
+  EXPECT_EQ(down_first.state(), HealthState::kDemoted);
+  EXPECT_EQ(down_first.info().reason, "recovering");
+  EXPECT_FALSE(down_first.RecordSuccess());
+  ExpectUpWhenTheHoldEnds(down_first, clock, milliseconds(1000));
 }
 
 TEST(HealthModelHold, InsideDemotedOnlyALongerRunIsPublished) {
