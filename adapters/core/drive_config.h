@@ -79,6 +79,8 @@ struct TrinamicConfig {
   // folded in by the factory; axes on one controller must agree).
   std::chrono::milliseconds retry_min{100};
   std::chrono::milliseconds retry_max{5000};
+  // health.up_after_ms folded in by the factory like retry_* (decision 1432).
+  std::chrono::milliseconds up_after{kDefaultUpAfter};
   // Values written at activation and re-sent after every detected controller reset (G-24):
   // "$14.vmax" -> 300 (opcode and field names of the instruction table, codec.cpp).
   std::vector<std::pair<std::string, int64_t>> parameters;

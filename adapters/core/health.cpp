@@ -14,6 +14,8 @@ namespace {
 // interval above 10 minutes would hide a dead drive for longer than any operator waits.
 constexpr int kMaxDownAfterFailures = 1000;
 constexpr std::chrono::milliseconds kMaxBackoff{600000};
+// The same bound for the hold before UP (decision 1432).
+constexpr std::chrono::milliseconds kMaxUpAfter{600000};
 }  // namespace
 
 const char* ToString(HealthState s) {
@@ -32,6 +34,7 @@ HealthConfig ResolveHealthConfig(const HealthOverrides& given, HealthConfig fami
   if (given.down_after_failures) family_default.down_after_failures = *given.down_after_failures;
   if (given.backoff_min) family_default.backoff_min = *given.backoff_min;
   if (given.backoff_max) family_default.backoff_max = *given.backoff_max;
+  if (given.up_after) family_default.up_after = *given.up_after;
   return family_default;
 }
 
@@ -50,6 +53,10 @@ absl::Status ValidateHealthConfig(const HealthConfig& c, absl::string_view key_p
     return absl::InvalidArgumentError(
         absl::StrCat(key_prefix, "backoff_min_ms: ", c.backoff_min.count(), " is outside 0..",
                      c.backoff_max.count(), " (", key_prefix, "backoff_max_ms)"));
+  }
+  if (c.up_after.count() < 0 || c.up_after > kMaxUpAfter) {
+    return absl::InvalidArgumentError(absl::StrCat(key_prefix, "up_after_ms: ", c.up_after.count(),
+                                                   " is outside 0..", kMaxUpAfter.count()));
   }
   return absl::OkStatus();
 }
@@ -82,23 +89,45 @@ void HealthModel::Enter(HealthState s) {
   info_.since = std::chrono::system_clock::now();
 }
 
+bool HealthModel::GoUp() {
+  info_.consecutive_failures = 0;
+  info_.reason.clear();
+  connecting_ = false;
+  holding_ = false;
+  Enter(HealthState::kUp);
+  return true;
+}
+
 bool HealthModel::RecordSuccess() {
   switch (info_.state) {
     case HealthState::kUp:
       return false;
     case HealthState::kDemoted:
-      info_.consecutive_failures = 0;
-      info_.reason.clear();
-      Enter(HealthState::kUp);
-      return true;
+      run_ = 0;
+      // Connecting is not flapping: the first reply is UP at once (decision 1432), as is any
+      // success without a hold (decision 1431's behaviour).
+      if (connecting_ || config_.up_after.count() == 0) return GoUp();
+      if (!holding_) {
+        // The first success after a failure starts the hold; one clock read per success while
+        // it runs, none while UP.
+        holding_ = true;
+        up_at_ = clock_.Now() + config_.up_after;
+        return false;
+      }
+      if (clock_.Now() < up_at_) return false;
+      return GoUp();
     case HealthState::kDown:
       // Recovering: one more success before UP, so a single stray reply of a dying drive does not
       // flip it UP, and the family re-establishes its link (Trinamic re-applies parameters) in
-      // between.
+      // between. The hold counts from this success (decision 1432: a link that was lost is the
+      // likeliest to be lost again; with up_after 0 the next success is UP, as in 1431).
       backoff_ = config_.backoff_min;
       failed_probes_ = 0;
+      run_ = 0;
       info_.consecutive_failures = 0;
       info_.reason = "recovering";
+      holding_ = true;
+      if (config_.up_after.count() > 0) up_at_ = clock_.Now() + config_.up_after;
       Enter(HealthState::kDemoted);
       return true;
   }
@@ -106,7 +135,11 @@ bool HealthModel::RecordSuccess() {
 }
 
 void HealthModel::GoDown(absl::string_view reason) {
+  info_.consecutive_failures = run_;
   info_.reason = std::string(reason);
+  // Back from DOWN is recovering, not connecting: the hold applies (decision 1432).
+  connecting_ = false;
+  holding_ = false;
   backoff_ = config_.backoff_min;
   next_probe_ = clock_.Now() + backoff_;
   Enter(HealthState::kDown);
@@ -116,13 +149,19 @@ bool HealthModel::RecordFailure(absl::string_view reason) {
   switch (info_.state) {
     case HealthState::kUp:
     case HealthState::kDemoted:
-      if (info_.consecutive_failures < UINT32_MAX) ++info_.consecutive_failures;
-      info_.reason = absl::StrCat(info_.consecutive_failures, " consecutive ", reason);
-      if (static_cast<int64_t>(info_.consecutive_failures) >= config_.down_after_failures) {
-        GoDown(info_.reason);
-      } else if (info_.state == HealthState::kUp) {
-        Enter(HealthState::kDemoted);
+      holding_ = false;  // a failure restarts the hold (decision 1432)
+      if (run_ < UINT32_MAX) ++run_;
+      if (static_cast<int64_t>(run_) >= config_.down_after_failures) {
+        GoDown(absl::StrCat(run_, " consecutive ", reason));
+        return true;
       }
+      // While DEMOTED only a run longer than the one published is news (closer to DOWN): a
+      // single lost exchange of a link DEMOTED for loss publishes nothing, so the changes per
+      // DEMOTED spell are at most down_after_failures (decision 1432).
+      if (info_.state == HealthState::kDemoted && run_ <= info_.consecutive_failures) return false;
+      info_.consecutive_failures = run_;
+      info_.reason = absl::StrCat(run_, " consecutive ", reason);
+      if (info_.state == HealthState::kUp) Enter(HealthState::kDemoted);
       return true;
     case HealthState::kDown:
       // A failed probe: wait twice as long before the next (bounded), so a dead drive on a shared
@@ -142,7 +181,7 @@ bool HealthModel::ForceDown(absl::string_view reason) {
     info_.reason = std::string(reason);
     return true;
   }
-  if (info_.consecutive_failures < UINT32_MAX) ++info_.consecutive_failures;
+  if (run_ < UINT32_MAX) ++run_;
   GoDown(reason);
   return true;
 }

@@ -17,11 +17,16 @@
 namespace drivegw {
 
 enum class HealthState {
-  kUp,       // the last exchange succeeded
+  kUp,       // exchanges succeed (for up_after without a failure when DEMOTED was entered so)
   kDemoted,  // connecting, failures counting below down_after_failures, or recovering after DOWN
   kDown,     // down_after_failures consecutive failures (or a family's immediate loss signal)
 };
 const char* ToString(HealthState s);
+
+// The hold before a DEMOTED link (entered by a failure or recovering from DOWN) is UP again,
+// every family (decision 1432: at most ~15 health events a minute at the worst loss rate, below
+// the event recorder's 20 per drive and minute).
+inline constexpr std::chrono::milliseconds kDefaultUpAfter{3000};
 
 // Per drive, config keys `health.*` (docs/config.md). The defaults are the per-family values the
 // families used before the shared model (decision 1431), chosen by DefaultHealthConfig.
@@ -29,6 +34,9 @@ struct HealthConfig {
   int down_after_failures = 3;
   std::chrono::milliseconds backoff_min{100};   // first probe interval of a DOWN link
   std::chrono::milliseconds backoff_max{5000};  // the doubling stops here
+  // DEMOTED -> UP only after successes without a failure for this long; 0 = at the next success
+  // (the behaviour of decision 1431). Not for the initial DEMOTED: the first reply is UP at once.
+  std::chrono::milliseconds up_after{kDefaultUpAfter};
 };
 
 // The `health.*` keys of one drive as given in the file; an absent key takes the family's default.
@@ -36,6 +44,7 @@ struct HealthOverrides {
   std::optional<int> down_after_failures;
   std::optional<std::chrono::milliseconds> backoff_min;
   std::optional<std::chrono::milliseconds> backoff_max;
+  std::optional<std::chrono::milliseconds> up_after;
 };
 // `family_default` with the given keys applied.
 HealthConfig ResolveHealthConfig(const HealthOverrides& given, HealthConfig family_default);
@@ -49,7 +58,9 @@ struct HealthInfo {
   // When `state` was entered (wall clock, for the API and the UNAVAILABLE message).
   std::chrono::system_clock::time_point since{};
   // The consecutive failures that led to `state` (frozen while DOWN: failed probes only lengthen
-  // the back-off, see HealthModel::failed_probes).
+  // the back-off, see HealthModel::failed_probes). While DEMOTED: the longest run since DEMOTED
+  // was entered, i.e. how close the link came to DOWN (decision 1432: a shorter run after a
+  // success publishes nothing).
   uint32_t consecutive_failures = 0;
   std::string reason;  // the last failure's cause, e.g. "3 consecutive time-outs"
 
@@ -71,12 +82,19 @@ class HealthModel {
   // call in the first milliseconds after activation is not refused for a reply not yet due.
   explicit HealthModel(HealthConfig config, const Clock& clock = SteadyClock::Instance());
 
-  // Each returns true when info() changed (the caller then hands it to DriveBase::SetHealth).
-  // A successful exchange: UP from UP or DEMOTED; DOWN -> DEMOTED (recovering: the family
-  // re-establishes its link, e.g. re-applies parameters); the next success makes it UP.
+  // Each returns true when info() changed (the caller then hands it to DriveBase::SetHealth);
+  // info() changes only then.
+  // A successful exchange: the first reply (initial DEMOTED) is UP at once; DEMOTED entered by a
+  // failure is UP at the first success once up_after has passed without a failure since the
+  // first success after the last failure (decision 1432); DOWN -> DEMOTED (recovering: the
+  // family re-establishes its link, e.g. re-applies parameters), UP after the same hold counted
+  // from this success (with up_after 0: at the next success). Reads the clock only while
+  // DEMOTED with a hold; nothing while UP.
   bool RecordSuccess();
-  // A failed exchange with its cause: UP -> DEMOTED, DEMOTED -> DOWN at down_after_failures;
-  // while DOWN (a failed probe) the back-off doubles up to backoff_max.
+  // A failed exchange with its cause: UP -> DEMOTED, DEMOTED -> DOWN at down_after_failures
+  // consecutive ones; it restarts the hold. While DEMOTED only a run longer than the published
+  // consecutive_failures is published. While DOWN (a failed probe) the back-off doubles up to
+  // backoff_max.
   bool RecordFailure(absl::string_view reason);
   // A loss the family detects at once (CANopen heartbeat time-out, CAN bus-off, a detected reset
   // to re-initialise): DOWN now, whatever the count.
@@ -101,6 +119,7 @@ class HealthModel {
  private:
   void Enter(HealthState s);
   void GoDown(absl::string_view reason);
+  bool GoUp();
 
   HealthConfig config_;
   const Clock& clock_;
@@ -108,6 +127,13 @@ class HealthModel {
   std::chrono::milliseconds backoff_;
   TimePoint next_probe_{};
   uint64_t failed_probes_ = 0;
+  // The current run of consecutive failures (info_.consecutive_failures is what was published).
+  uint32_t run_ = 0;
+  // Still in the initial DEMOTED: no reply yet, so the first one is UP without a hold.
+  bool connecting_ = true;
+  // A success since the last failure started the hold; UP at a success from up_at_ on.
+  bool holding_ = false;
+  TimePoint up_at_{};
 };
 
 }  // namespace drivegw

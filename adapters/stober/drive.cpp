@@ -188,7 +188,9 @@ void StoberDrive::RunWorker() {
         link_ok_ = true;
         ++counters_.configurations;
         log::Info("stober_configured", log::Fields().Add("drive", config().name));
-        health_->RecordSuccess();  // DOWN -> DEMOTED (recovering); the first status TPDO -> UP
+        // DOWN -> DEMOTED (recovering); status TPDOs and heartbeats make it UP after the hold
+        // (health.up_after_ms, decision 1432).
+        health_->RecordSuccess();
         PublishHealthLocked();
       } else if (!s.ok()) {
         ++counters_.configure_failures;

@@ -72,6 +72,7 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateTrinamicDrive(const DriveConfig& co
   health.down_after_failures = t.offline_after_misses;
   health.backoff_min = t.retry_min;
   health.backoff_max = t.retry_max;
+  health.up_after = t.up_after;
   health = ResolveHealthConfig(config.health, health);
   if (auto s = ValidateHealthConfig(health, absl::StrCat("drive '", config.name, "'.health."));
       !s.ok()) {
@@ -81,6 +82,7 @@ absl::StatusOr<std::unique_ptr<Drive>> CreateTrinamicDrive(const DriveConfig& co
   resolved.trinamic->offline_after_misses = health.down_after_failures;
   resolved.trinamic->retry_min = health.backoff_min;
   resolved.trinamic->retry_max = health.backoff_max;
+  resolved.trinamic->up_after = health.up_after;
   // The whole axis range must be int32 microsteps (L60, L693).
   for (const auto& [field, mm] : {std::pair<const char*, double>{"min_mm", config.axis.min_mm},
                                   std::pair<const char*, double>{"max_mm", config.axis.max_mm}}) {

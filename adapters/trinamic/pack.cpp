@@ -80,6 +80,10 @@ absl::Status SameTransport(const TrinamicConfig& have, const TrinamicConfig& wan
     return conflict("health.backoff_max_ms", std::to_string(have.retry_max.count()),
                     std::to_string(want.retry_max.count()));
   }
+  if (have.up_after != want.up_after) {
+    return conflict("health.up_after_ms", std::to_string(have.up_after.count()),
+                    std::to_string(want.up_after.count()));
+  }
   return absl::OkStatus();
 }
 
@@ -113,6 +117,7 @@ SessionOptions SessionOptionsOf(const TrinamicConfig& c) {
   o.offline_after_misses = c.offline_after_misses;
   o.retry_min = c.retry_min;
   o.retry_max = c.retry_max;
+  o.up_after = c.up_after;
   o.probe_timeout = std::max(c.reply_timeout, milliseconds(50));
   // A reset PACK talks 19200 again (L273, L899, G-40): the probe falls back to it.
   if (c.serial) o.reset_baud = kResetBaud;

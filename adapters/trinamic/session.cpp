@@ -354,9 +354,9 @@ absl::StatusOr<std::shared_ptr<ControllerSession>> ControllerSession::Open(
   if (options.offline_after_misses < 1) {
     return absl::InvalidArgumentError("trinamic session.offline_after_misses: must be >= 1");
   }
-  if (auto s = ValidateHealthConfig(
-          HealthConfig{options.offline_after_misses, options.retry_min, options.retry_max},
-          "trinamic session.health.");
+  if (auto s = ValidateHealthConfig(HealthConfig{options.offline_after_misses, options.retry_min,
+                                                 options.retry_max, options.up_after},
+                                    "trinamic session.health.");
       !s.ok()) {
     return s;
   }
@@ -372,7 +372,8 @@ ControllerSession::ControllerSession(std::unique_ptr<SessionLink> link,
     : options_(options),
       link_(std::move(link)),
       name_(absl::StrCat("trinamic ", link_->Name(), " address ", std::to_string(options.address))),
-      health_(HealthConfig{options.offline_after_misses, options.retry_min, options.retry_max}),
+      health_(HealthConfig{options.offline_after_misses, options.retry_min, options.retry_max,
+                           options.up_after}),
       baud_(link_->baud()) {
   health_info_ = health_.info();
 }

@@ -34,6 +34,8 @@ struct SessionOptions {
   std::chrono::milliseconds probe_timeout{200};  // one $43 probe (framing detection, G-01)
   std::chrono::milliseconds retry_min{100};      // reconnect back-off, doubling ...
   std::chrono::milliseconds retry_max{5000};     // ... up to this
+  // DEMOTED -> UP only after this long without a miss (health.up_after_ms, decision 1432).
+  std::chrono::milliseconds up_after{kDefaultUpAfter};
   // §2.5 [P]: consecutive words at least 2 ms apart (L303).
   std::chrono::microseconds command_gap{2000};
   // After a reply the session listens this long for a second answer (duplicate address, 1055).

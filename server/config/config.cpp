@@ -238,11 +238,13 @@ void ParseTimeouts(const Section& drive, TimeoutConfig& out) {
 // is ambiguous and refused.
 constexpr int64_t kMaxDownAfterFailures = 1000;
 constexpr int64_t kMaxBackoffMs = 600000;
+constexpr int64_t kMaxUpAfterMs = 600000;
 void ParseHealth(const Section& drive, HealthOverrides& out) {
   auto node = drive.Get("health");
   if (!node) return;
   const Section s(*node, drive.Child("health"),
-                  {"down_after_failures", "backoff_min_ms", "backoff_max_ms"}, drive.errors());
+                  {"down_after_failures", "backoff_min_ms", "backoff_max_ms", "up_after_ms"},
+                  drive.errors());
   if (!node->IsNull() && !node->IsMap()) return;
   int64_t v = 0;
   if (s.Int("down_after_failures", 1, kMaxDownAfterFailures, v)) {
@@ -257,6 +259,8 @@ void ParseHealth(const Section& drive, HealthOverrides& out) {
                                 out.backoff_max->count()),
                    *s.Get("backoff_min_ms"));
   }
+  // 0 = UP at the next success, decision 1431's behaviour; the default holds (decision 1432).
+  if (s.Int("up_after_ms", 0, kMaxUpAfterMs, v)) out.up_after = std::chrono::milliseconds(v);
   for (auto [section, key] : {std::pair<const char*, const char*>{"linudp", "lost_after_timeouts"},
                               {"trinamic", "offline_after_misses"}}) {
     auto family = drive.Get(section);

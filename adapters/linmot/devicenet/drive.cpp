@@ -210,6 +210,7 @@ absl::Status LinMotDnDrive::DoActivate() {
   if (h.down_after_failures) po.down_after_failures = *h.down_after_failures;
   if (h.backoff_min) po.retry_min = *h.backoff_min;
   if (h.backoff_max) po.retry_max = *h.backoff_max;
+  if (h.up_after) po.up_after = *h.up_after;
   po.wire_trace = wire_trace_;
   absl::StatusOr<PeerId> id = session->Register(po, this);
   std::lock_guard lock(mu_);

@@ -179,6 +179,7 @@ absl::StatusOr<PeerId> Session::Register(const PeerOptions& o, SessionPeer* peer
                   1;
     health.backoff_min = std::chrono::duration_cast<std::chrono::milliseconds>(o.retry_min);
     health.backoff_max = std::chrono::duration_cast<std::chrono::milliseconds>(o.retry_max);
+    health.up_after = o.up_after;
     if (auto s = ValidateHealthConfig(health, absl::StrCat(where, ".health.")); !s.ok()) return s;
     p.health.emplace(health, clock_);
     p.reassembler = Reassembler(std::max(o.produced_size, kMaxFrameData));
@@ -396,9 +397,10 @@ void Session::EstablishLocked(Peer& p, TimePoint now) {
   p.next_keep_alive = now + Ms(p.granted_explicit_epr_ms) / 2;
   ++p.counters.connects;
   // Decision 1431: a completed set-up means the drive answered, so a DOWN peer is recovering
-  // (DEMOTED; UP on its first poll response). Left DOWN, the first lost poll of the new connection
-  // would drop it again at once instead of counting up to health.down_after_failures (found by
-  // DnFaultTest under 10 % loss: the connection never survived long enough to answer a poll).
+  // (DEMOTED; UP once its poll responses pass the hold, decision 1432). Left DOWN, the first lost
+  // poll of the new connection would drop it again at once instead of counting up to
+  // health.down_after_failures (found by DnFaultTest under 10 % loss: the connection never survived
+  // long enough to answer a poll).
   if (p.health->state() == HealthState::kDown) HealthChangedLocked(p, p.health->RecordSuccess());
   log::Debug("devicenet_established", log::Fields()
                                           .Add("drive", p.options.name)

@@ -95,6 +95,9 @@ struct PeerOptions {
   // decision 1431). 0 = one more than fit into the inactivity watchdog (4 x EPR /
   // response_timeout), so by default the watchdog decides, as before the shared model.
   int down_after_failures = 0;
+  // DEMOTED -> UP only after this long without a poll time-out (health.up_after_ms, decision
+  // 1432).
+  std::chrono::milliseconds up_after{kDefaultUpAfter};
   // Wire trace switch (Drive::SetWireTrace): while it reads true, every frame to and from this
   // MAC ID is logged (adapters/core/wire_observer.h). Null: never.
   std::shared_ptr<const std::atomic<bool>> wire_trace;

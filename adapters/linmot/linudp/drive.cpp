@@ -179,6 +179,7 @@ absl::Status LinMotUdpDrive::DoActivate() {
   options.lost_after_timeouts = health.down_after_failures;
   options.probe_backoff_min = health.backoff_min;
   options.probe_backoff_max = health.backoff_max;
+  options.up_after = health.up_after;
   options.wire_trace = wire_trace_;
   absl::StatusOr<PeerId> id = (*session)->Register(options, this);
   std::lock_guard lock(mu_);

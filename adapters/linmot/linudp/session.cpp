@@ -158,6 +158,7 @@ absl::StatusOr<PeerId> Session::Register(const PeerOptions& options, SessionPeer
   health.down_after_failures = options.lost_after_timeouts;
   health.backoff_min = options.probe_backoff_min;
   health.backoff_max = options.probe_backoff_max;
+  health.up_after = options.up_after;
   if (absl::Status s =
           ValidateHealthConfig(health, absl::StrCat("drive '", options.name, "'.health."));
       !s.ok()) {

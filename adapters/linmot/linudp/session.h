@@ -97,6 +97,8 @@ struct PeerOptions {
   // probing it costs the others nothing but a datagram).
   std::chrono::milliseconds probe_backoff_min{0};
   std::chrono::milliseconds probe_backoff_max{0};
+  // DEMOTED -> UP only after this long without a time-out (health.up_after_ms, decision 1432).
+  std::chrono::milliseconds up_after{kDefaultUpAfter};
   // Wire trace switch (Drive::SetWireTrace): while it reads true, every telegram to and from
   // this drive is logged as hex (adapters/core/wire_observer.h). Null: never.
   std::shared_ptr<const std::atomic<bool>> wire_trace;

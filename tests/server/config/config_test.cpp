@@ -722,14 +722,20 @@ TEST(ParseConfigTest, Health_AbsentKeysStayUnset_GivenOnesApplied) {
   ASSERT_TRUE(cfg.ok()) << cfg.status();
   EXPECT_FALSE(cfg->drives[0].health.down_after_failures.has_value());
   EXPECT_FALSE(cfg->drives[0].health.backoff_min.has_value());
-  cfg = ParseConfig(OneDriveWith(
-      kAxisLine,
-      "    health: {down_after_failures: 4, backoff_min_ms: 0, backoff_max_ms: 800}\n    axis:\n"));
+  EXPECT_FALSE(cfg->drives[0].health.up_after.has_value());
+  cfg = ParseConfig(OneDriveWith(kAxisLine,
+                                 "    health: {down_after_failures: 4, backoff_min_ms: 0, "
+                                 "backoff_max_ms: 800, up_after_ms: 2500}\n    axis:\n"));
   ASSERT_TRUE(cfg.ok()) << cfg.status();
   const HealthOverrides& h = cfg->drives[0].health;
   EXPECT_EQ(h.down_after_failures, 4);
   EXPECT_EQ(h.backoff_min, std::chrono::milliseconds(0));
   EXPECT_EQ(h.backoff_max, std::chrono::milliseconds(800));
+  EXPECT_EQ(h.up_after, std::chrono::milliseconds(2500));
+  // 0 is valid: UP at the next success (decision 1432).
+  cfg = ParseConfig(OneDriveWith(kAxisLine, "    health: {up_after_ms: 0}\n    axis:\n"));
+  ASSERT_TRUE(cfg.ok()) << cfg.status();
+  EXPECT_EQ(cfg->drives[0].health.up_after, std::chrono::milliseconds(0));
 }
 
 TEST(ParseConfigTest, Health_LimitsNameTheKey) {
@@ -746,6 +752,10 @@ TEST(ParseConfigTest, Health_LimitsNameTheKey) {
       Message(OneDriveWith(kAxisLine,
                            "    health: {backoff_min_ms: 900, backoff_max_ms: 800}\n    axis:\n")),
       HasSubstr("drives[0].health.backoff_min_ms: 900 must not exceed backoff_max_ms 800"));
+  EXPECT_THAT(Message(OneDriveWith(kAxisLine, "    health: {up_after_ms: 600001}\n    axis:\n")),
+              HasSubstr("drives[0].health.up_after_ms: 600001 exceeds 600000"));
+  EXPECT_THAT(Message(OneDriveWith(kAxisLine, "    health: {up_after_ms: -5}\n    axis:\n")),
+              HasSubstr("drives[0].health.up_after_ms: -5 is below 0"));
   EXPECT_THAT(Message(OneDriveWith(kAxisLine, "    health: {retries: 3}\n    axis:\n")),
               HasSubstr("drives[0].health.retries"));
 }

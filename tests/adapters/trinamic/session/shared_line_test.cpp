@@ -254,6 +254,24 @@ TEST(TrinamicSharedLineTest, DriveActivate_OtherBaudOnTheSameLine_RefusedNamingB
   a->Deactivate();
 }
 
+// Decision 1432: one HealthModel per controller, so the axes of one controller must agree on
+// health.up_after_ms (the factory folds it into TrinamicConfig::up_after, like the back-off).
+TEST(TrinamicSharedLineTest, SameController_OtherUpAfter_RefusedNamingTheKey) {
+  MultiDrop line(1);
+  ASSERT_NE(line.server, nullptr);
+  auto first = Pack::Acquire(PackConfig(line.path, 1), "drive 'a'");
+  ASSERT_TRUE(first.ok()) << first.status();
+  TrinamicConfig other = PackConfig(line.path, 1);
+  other.up_after = 0ms;
+  auto second = Pack::Acquire(other, "drive 'b'");
+  ASSERT_EQ(second.status().code(), absl::StatusCode::kInvalidArgument) << second.status();
+  EXPECT_THAT(second.status().message(),
+              HasSubstr("trinamic.health.up_after_ms: 0 conflicts with 3000"));
+  auto same = Pack::Acquire(PackConfig(line.path, 1), "drive 'c'");
+  ASSERT_TRUE(same.ok()) << same.status();
+  EXPECT_EQ(same->get(), first->get());
+}
+
 // Polls answered by `a` and by `b` during the same `window`, per second.
 std::pair<double, double> PollsPerSecond(Pack& a, Pack& b, std::chrono::milliseconds window) {
   const uint64_t a0 = a.counters().polls, b0 = b.counters().polls;
@@ -333,9 +351,10 @@ TEST(TrinamicSharedLineTest, DeadNeighbour_IsDownAndProbedAtItsBackoffOnly) {
   EXPECT_LE(dc.requests, dc.probes);
   EXPECT_GE(dc.requests + 1, dc.probes);
 
-  // It comes back: UP again after its next probe, the live one never noticed.
+  // It comes back: UP again after its next probe (up to 1.6 s away) and the hold before UP
+  // (health.up_after_ms, 3 s by default, decision 1432); the live one never noticed.
   line.server->SetUnitSilent(1, false);
-  const auto until = SessionClock::now() + 5s;
+  const auto until = SessionClock::now() + 10s;
   while (dead->health().state != HealthState::kUp && SessionClock::now() < until) {
     std::this_thread::sleep_for(20ms);
   }
