@@ -44,6 +44,9 @@ export const tests = [
       const x1link = tid(page, 'drive-card-x1').locator('[data-testid=link]');
       await text(x1link, /rt \d+\.\d ms/, 'card x1 link round trip');
       await text(x1link, /missed \d+/, 'card x1 link missed');
+      // Device health on the same line (decision 1431). x1 answers, so UP — or DEMOTED for the
+      // 3 s hold of decision 1432 after a reply lost on a loaded machine; never absent.
+      await text(x1link, /· (UP$|DEMOTED since )/, 'card x1 health state');
       // A change made elsewhere (REST) reaches the card through the live stream.
       const r = await gw.rest('POST', '/v1/drives/x2:enable', {});
       expect(r.status === 200, `enable x2 over REST: ${r.status} ${JSON.stringify(r.body)}`);
