@@ -222,6 +222,22 @@ class Drive {
   // passes; returns the newest snapshot either way.
   virtual DriveStatus WaitForStatus(uint64_t after_sequence,
                                     std::chrono::steady_clock::time_point deadline) const = 0;
+  // Like WaitForStatus, but wakes only for a snapshot newer than `after_sequence` in which a
+  // field drive events are derived from changed (EventFieldsDiffer), or when the drive is
+  // deactivated: a moving axis publishes its position every cycle, and the drive-event recorder
+  // must not wake for each one (issue 10). A drive that does not tell such changes apart wakes on
+  // every snapshot; a caller that compares snapshots stays correct either way.
+  virtual DriveStatus WaitForEventStatus(uint64_t after_sequence,
+                                         std::chrono::steady_clock::time_point deadline) const {
+    return WaitForStatus(after_sequence, deadline);
+  }
 };
+
+// Whether `b` differs from `a` in a field a drive event (server/core/drive_event_recorder) is
+// derived from: the state (any change, so that an event's "before" state is the one just before
+// it), the health's presence or state, the fault, the warnings, homed. Position, velocity,
+// command progress and native words are not. A superset of what DriveEventsBetween reports, so a
+// waiter that only wakes on these changes misses no event.
+bool EventFieldsDiffer(const DriveStatus& a, const DriveStatus& b);
 
 }  // namespace drivegw

@@ -60,6 +60,14 @@ const char* ToString(CommandState s) {
   return "?";
 }
 
+bool EventFieldsDiffer(const DriveStatus& a, const DriveStatus& b) {
+  const bool health_differs = a.health.has_value() != b.health.has_value() ||
+                              (a.health && b.health && a.health->state != b.health->state);
+  return a.state != b.state || health_differs || a.fault.code != b.fault.code ||
+         a.fault.text != b.fault.text || a.fault.fatal != b.fault.fatal ||
+         a.warnings != b.warnings || a.homed != b.homed;
+}
+
 DriveBase::DriveBase(DriveConfig config) : config_(std::move(config)) {
   status_.time = std::chrono::system_clock::now();
 }
@@ -98,6 +106,7 @@ void DriveBase::Deactivate() {
   log::Info("lifecycle",
             log::Fields().Add("drive", config_.name).Add("from", "ACTIVE").Add("to", "INACTIVE"));
   changed_.notify_all();
+  event_changed_.notify_all();
 }
 
 Lifecycle DriveBase::lifecycle() const {
@@ -135,6 +144,15 @@ DriveStatus DriveBase::WaitForStatus(uint64_t after_sequence,
   return status_;
 }
 
+DriveStatus DriveBase::WaitForEventStatus(uint64_t after_sequence,
+                                          std::chrono::steady_clock::time_point deadline) const {
+  std::unique_lock lock(mu_);
+  event_changed_.wait_until(lock, deadline, [&] {
+    return event_sequence_ > after_sequence || lifecycle_ == Lifecycle::kInactive;
+  });
+  return status_;
+}
+
 void DriveBase::PublishStatus(DriveStatus status) {
   std::lock_guard lock(mu_);
   status.sequence = status_.sequence + 1;
@@ -144,8 +162,15 @@ void DriveBase::PublishStatus(DriveStatus status) {
     if (Entry* e = FindLocked(*last_command_id_)) status.last_command = e->info;
   }
   status.health = status_.health;
+  const bool event = EventFieldsDiffer(status_, status);
   status_ = std::move(status);
   changed_.notify_all();
+  if (event) EventChangedLocked();
+}
+
+void DriveBase::EventChangedLocked() {
+  event_sequence_ = status_.sequence;
+  event_changed_.notify_all();
 }
 
 void DriveBase::SetHealth(const HealthInfo& health) {
@@ -166,8 +191,10 @@ void DriveBase::SetHealth(const HealthInfo& health) {
       log::Info("drive_health", fields);
     }
   }
+  const bool event = !status_.health || status_.health->state != health.state;
   status_.health = health;
   RepublishLocked();
+  if (event) EventChangedLocked();
 }
 
 void DriveBase::RepublishLocked() {

@@ -26,6 +26,8 @@ class DriveBase : public Drive {
   std::optional<CommandInfo> GetCommand(uint64_t id) const final;
   DriveStatus WaitForStatus(uint64_t after_sequence,
                             std::chrono::steady_clock::time_point deadline) const final;
+  DriveStatus WaitForEventStatus(uint64_t after_sequence,
+                                 std::chrono::steady_clock::time_point deadline) const final;
 
  protected:
   virtual absl::Status DoActivate() = 0;
@@ -59,10 +61,16 @@ class DriveBase : public Drive {
   };
   Entry* FindLocked(uint64_t id);
   void RepublishLocked();
+  // Marks the snapshot just published as one with an event change and wakes the event waiters.
+  void EventChangedLocked();
 
   const DriveConfig config_;
   mutable std::mutex mu_;
   mutable std::condition_variable changed_;
+  // Event waiters (WaitForEventStatus) wait here, woken only by EventChangedLocked and
+  // Deactivate; `event_sequence_` is the newest snapshot's sequence with an event change.
+  mutable std::condition_variable event_changed_;
+  uint64_t event_sequence_ = 0;
   Lifecycle lifecycle_ = Lifecycle::kUnconfigured;
   DriveStatus status_;
   uint64_t next_command_id_ = 1;

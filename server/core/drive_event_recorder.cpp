@@ -149,7 +149,10 @@ void DriveEventRecorder::Watch(const std::shared_ptr<Drive>& drive) {
   DriveStatus last;  // a drive starts OFFLINE (DriveStatus's default)
   EventBudget budget(kMaxEventsPerWindow, kWindow, std::chrono::steady_clock::now());
   while (!stop_.load()) {
-    DriveStatus s = drive->WaitForStatus(last.sequence, std::chrono::steady_clock::now() + kSlice);
+    // Woken only by snapshots with an event field changed (EventFieldsDiffer), not by
+    // every position a moving axis publishes each cycle (issue 10).
+    DriveStatus s =
+        drive->WaitForEventStatus(last.sequence, std::chrono::steady_clock::now() + kSlice);
     if (stop_.load()) break;
     if (s.sequence == last.sequence) {
       // No news: a deactivated drive returns at once, so rest a slice instead of spinning.

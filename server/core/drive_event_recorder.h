@@ -63,9 +63,10 @@ class DriveEventRecorder {
   static constexpr int kMaxEventsPerWindow = 20;
   static constexpr std::chrono::seconds kWindow{60};
 
-  // Starts one watcher thread per drive; each sleeps in Drive::WaitForStatus between
-  // snapshots. `audit` (not null) must outlive the recorder; drives stay alive through the
-  // shared pointers. Drives start OFFLINE, so the first snapshot with a link is "drive.online".
+  // Starts one watcher thread per drive; each sleeps in Drive::WaitForEventStatus
+  // between snapshots that change an event field. `audit` (not null) must outlive the recorder;
+  // drives stay alive through the shared pointers. Drives start OFFLINE, so the first snapshot with
+  // a link is "drive.online".
   DriveEventRecorder(std::vector<std::shared_ptr<Drive>> drives, storage::AuditLog* audit);
   ~DriveEventRecorder();
   DriveEventRecorder(const DriveEventRecorder&) = delete;

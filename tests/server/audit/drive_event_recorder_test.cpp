@@ -6,8 +6,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <memory>
+#include <thread>
 
 #include "adapters/core/clock.h"
 #include "adapters/linmot/linudp/factory.h"
@@ -107,6 +109,64 @@ TEST(DriveEventsBetweenTest, HealthChanges) {
   EXPECT_TRUE(DriveEventsBetween(none, none).empty());
 }
 
+// The recorder only wakes for snapshots whose event fields changed (EventFieldsDiffer, issue
+// 10): every pair of snapshots that DriveEventsBetween reports an event for must count as such a
+// change, or the event would be lost. Exhaustive over the fields' variants.
+TEST(EventFieldsDifferTest, EveryEventIsAnEventFieldChange) {
+  std::vector<DriveStatus> all;
+  const std::vector<std::optional<HealthInfo>> healths = {
+      std::nullopt, HealthInfo{HealthState::kUp, {}, 0, ""},
+      HealthInfo{HealthState::kDemoted, {}, 1, "1 time-out"},
+      HealthInfo{HealthState::kDown, {}, 3, "3 consecutive time-outs"}};
+  const std::vector<Fault> faults = {{},
+                                     {0x0B, "Max Pos Error Exceeded", false},
+                                     {0x0B, "other text", false},
+                                     {0x0B, "Max Pos Error Exceeded", true},
+                                     {0x21, "X1 Pwr Voltage Too Low", false}};
+  const std::vector<std::vector<std::string>> warnings = {{}, {"Motor Hot"}, {"Motor Hot", "X"}};
+  for (int st = 0; st <= static_cast<int>(DriveState::kFault); ++st) {
+    for (const auto& h : healths) {
+      for (const auto& f : faults) {
+        for (const auto& w : warnings) {
+          for (bool homed : {false, true}) {
+            DriveStatus s;
+            s.state = static_cast<DriveState>(st);
+            s.health = h;
+            s.fault = f;
+            s.warnings = w;
+            s.homed = homed;
+            all.push_back(s);
+          }
+        }
+      }
+    }
+  }
+  int events = 0;
+  for (const DriveStatus& a : all) {
+    for (const DriveStatus& b : all) {
+      if (DriveEventsBetween(a, b).empty()) continue;
+      ++events;
+      ASSERT_TRUE(EventFieldsDiffer(a, b)) << ToString(a.state) << " -> " << ToString(b.state)
+                                           << ": " << DriveEventsBetween(a, b).front().action;
+    }
+  }
+  EXPECT_GT(events, 10000);
+  // What a moving axis publishes every cycle is no event field.
+  DriveStatus moving = all.front();
+  moving.state = DriveState::kMoving;
+  DriveStatus next = moving;
+  next.position_mm = 12.5;
+  next.demand_position_mm = 13;
+  next.velocity_mm_s = 100;
+  next.native.status_word ^= 0x1000;
+  next.in_target = !moving.in_target;
+  next.last_command = CommandInfo{};
+  next.sequence = moving.sequence + 1;
+  EXPECT_FALSE(EventFieldsDiffer(moving, next));
+  next.state = DriveState::kEnabled;
+  EXPECT_TRUE(EventFieldsDiffer(moving, next));
+}
+
 TEST(EventBudgetTest, CapsEachWindowAndReportsTheSuppressedCountWhenItEnds) {
   const auto t0 = std::chrono::steady_clock::time_point{} + 1h;
   EventBudget budget(3, 60s, t0);
@@ -178,6 +238,44 @@ class DriveEventRecorderTest : public storage::testing::AuditDbTest {
   std::shared_ptr<Drive> drive_;
   std::unique_ptr<DriveEventRecorder> recorder_;
 };
+
+// A moving axis publishes its position every cycle; a waiter for event changes (the recorder's
+// wait) wakes for the state changes of the move, not for each of those snapshots (issue 10).
+TEST_F(DriveEventRecorderTest, EventWaiterSleepsThroughAMovesPositionSnapshots) {
+  ASSERT_TRUE(WaitForAction("drive.online").has_value());
+  auto en = drive_->Enable();
+  ASSERT_TRUE(en.ok()) << en.status();
+  auto home = drive_->Home();
+  ASSERT_TRUE(home.ok()) << home.status();
+  ASSERT_EQ(test_support::WaitCommandFinal(*drive_, home->id, kWait).state, CommandState::kDone);
+
+  std::atomic<bool> done{false};
+  std::atomic<int> event_wakes{0};
+  std::atomic<int> status_wakes{0};
+  auto count = [&](bool events, std::atomic<int>& wakes) {
+    DriveStatus last = drive_->GetStatus();
+    while (!done.load()) {
+      const auto deadline = std::chrono::steady_clock::now() + 20ms;
+      DriveStatus s = events ? drive_->WaitForEventStatus(last.sequence, deadline)
+                             : drive_->WaitForStatus(last.sequence, deadline);
+      // Woken (not the slice's end, after which the newest snapshot comes back anyway).
+      if (s.sequence != last.sequence && std::chrono::steady_clock::now() < deadline) ++wakes;
+      last = std::move(s);
+    }
+  };
+  std::thread event_waiter(count, true, std::ref(event_wakes));
+  std::thread status_waiter(count, false, std::ref(status_wakes));
+  // 0 -> 100 mm at 200 mm/s: ≈ 0.5 s of motion, a new position every 2 ms cycle.
+  auto move = drive_->Move(MoveAbsolute{100, 200, 2000, 2000});
+  ASSERT_TRUE(move.ok()) << move.status();
+  EXPECT_EQ(test_support::WaitCommandFinal(*drive_, move->id, kWait).state, CommandState::kDone);
+  done = true;
+  event_waiter.join();
+  status_waiter.join();
+  EXPECT_GT(status_wakes.load(), 20);  // positions published while moving
+  EXPECT_GE(event_wakes.load(), 1);    // at least MOVING and back
+  EXPECT_LE(event_wakes.load(), 6) << "status wakes: " << status_wakes.load();
+}
 
 TEST_F(DriveEventRecorderTest, OnlineHomedFaultOffline_RecordedAsTheDrive) {
   auto online = WaitForAction("drive.online");
