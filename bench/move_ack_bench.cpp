@@ -41,6 +41,18 @@ int g_errors = 0;  // failed moves (time-outs), reported with the results
 // The gateway row split at the handle's create_time (the drive's StartCommand; both clocks are
 // this process's system clock): call sent -> command created, command created -> reply received.
 std::vector<double> g_to_created, g_from_created;
+// The composed rows' steps timed inside the echo's handler (warm-up included): what each bare
+// part costs when composed, against the same part alone in a tight loop.
+std::vector<double> g_inline_rt_in_handler, g_handed_rt_in_handler, g_insert_in_handler;
+
+// Runs `step` and appends its wall time in µs to `to`.
+template <typename Step>
+void TimeStep(std::vector<double>& to, Step step) {
+  const auto t0 = std::chrono::steady_clock::now();
+  step();
+  to.push_back(
+      std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
+}
 
 // Bare gRPC unary echo (callback generic service, same payload size as a MoveAbsoluteRequest);
 // `before_reply` runs in its handler on gRPC's callback thread (the composed baselines).
@@ -87,13 +99,13 @@ Row MeasureUdpRoundTrip(drivegw::transport::Endpoint drive, int n) {
 // Composed (a): the echo whose handler does the bare round trip itself, on gRPC's thread.
 Row MeasureEchoInlineRoundTrip(drivegw::transport::Endpoint drive, int n) {
   drivegw::bench::InlineRoundTrip rt(drive);
-  return MeasureGrpcEcho(n, [&] { rt.Run(); });
+  return MeasureGrpcEcho(n, [&] { TimeStep(g_inline_rt_in_handler, [&] { rt.Run(); }); });
 }
 
 // Composed (b): the round trip handed over to an I/O thread as the gateway's session does.
 Row MeasureEchoHandedOverRoundTrip(drivegw::transport::Endpoint drive, int n) {
   drivegw::bench::HandedOverRoundTrip rt(drive);
-  return MeasureGrpcEcho(n, [&] { rt.Run(); });
+  return MeasureGrpcEcho(n, [&] { TimeStep(g_handed_rt_in_handler, [&] { rt.Run(); }); });
 }
 
 // Composed (c): (b) plus a bare durable INSERT+COMMIT before the reply (decision 017's order).
@@ -102,7 +114,7 @@ Row MeasureEchoHandedOverAudited(drivegw::transport::Endpoint drive, const std::
   drivegw::bench::BareAuditInsert audit(db);
   return MeasureGrpcEcho(n, [&] {
     rt.Run();
-    audit.Commit();
+    TimeStep(g_insert_in_handler, [&] { audit.Commit(); });
   });
 }
 
@@ -299,6 +311,13 @@ void PrintRow(const char* label, const Row& row) {
 int main(int argc, char** argv) {
   using drivegw::bench::Summarize;
   const int n = argc > 1 ? std::atoi(argv[1]) : 2000;
+  // Optional: a comma-separated list of the rows to run (the keys of cpu_us_per_call in the
+  // detail), for profiling one row alone (perf record); such a run prints no @result line.
+  const std::string only = argc > 2 ? argv[2] : "";
+  auto want = [&](const char* key) {
+    return only.empty() ||
+           ("," + only + ",").find("," + std::string(key) + ",") != std::string::npos;
+  };
   char tmpl[] = "/tmp/drivegw-bench-XXXXXX";
   if (::mkdtemp(tmpl) == nullptr) return 1;
   drivegw::server::GatewayOptions o;
@@ -329,20 +348,22 @@ int main(int argc, char** argv) {
   for (int r = 0; r < rounds; ++r) {
     const int k = n / rounds;
     idle += MeasureIdle();
-    echo += MeasureGrpcEcho(k);
-    udp += MeasureUdpRoundTrip(sim, k);
-    echo_inline_rt += MeasureEchoInlineRoundTrip(sim, k);
-    echo_handed_rt += MeasureEchoHandedOverRoundTrip(sim, k);
-    echo_audited += MeasureEchoHandedOverAudited(sim, composed_db, k);
-    move += MeasureMoveAck(**gw, k);
-    get += MeasureGetCommand(**gw, k);
-    noop += MeasureOffloadedNoop(**gw, k);
-    insert += MeasureBareInsert(insert_db, k);
-    core += MeasureCoreMoveAck((*gw)->core(), k);
-    bare_core += MeasureCoreMoveAck(unaudited, k);
+    if (want("echo")) echo += MeasureGrpcEcho(k);
+    if (want("udp")) udp += MeasureUdpRoundTrip(sim, k);
+    if (want("composed_inline")) echo_inline_rt += MeasureEchoInlineRoundTrip(sim, k);
+    if (want("composed_handed_over")) echo_handed_rt += MeasureEchoHandedOverRoundTrip(sim, k);
+    if (want("composed_audited")) echo_audited += MeasureEchoHandedOverAudited(sim, composed_db, k);
+    if (want("gateway")) move += MeasureMoveAck(**gw, k);
+    if (want("get_command")) get += MeasureGetCommand(**gw, k);
+    if (want("offload_noop")) noop += MeasureOffloadedNoop(**gw, k);
+    if (want("bare_insert")) insert += MeasureBareInsert(insert_db, k);
+    if (want("core")) core += MeasureCoreMoveAck((*gw)->core(), k);
+    if (want("core_no_audit")) bare_core += MeasureCoreMoveAck(unaudited, k);
     // Over the unaudited core: no extra audit rows that would slow the next round's gateway row
     // (the audit append's share is the two core-direct rows' difference).
-    core_async += MeasureCoreAsyncMoveAck(unaudited, bench_pool, k);
+    if (want("core_async_no_audit")) {
+      core_async += MeasureCoreAsyncMoveAck(unaudited, bench_pool, k);
+    }
   }
   bench_pool.Shutdown();
   const auto se = Summarize(echo.us), su = Summarize(udp.us), sm = Summarize(move.us),
@@ -357,9 +378,15 @@ int main(int argc, char** argv) {
   std::printf("%-42s %9.1f %9.1f %9.1f\n", "baseline sum (echo + round trip)",
               se.p50_us + su.p50_us, se.p99_us + su.p99_us,
               echo.CpuUsPerCall() + udp.CpuUsPerCall());
+  const auto s_irt = Summarize(g_inline_rt_in_handler), s_hrt = Summarize(g_handed_rt_in_handler),
+             s_ins = Summarize(g_insert_in_handler);
   PrintRow("composed (a): echo + inline round trip", echo_inline_rt);
+  std::printf("%-42s %9.1f %9.1f\n", "  round trip inside the handler", s_irt.p50_us, s_irt.p99_us);
   PrintRow("composed (b): echo + handed-over trip", echo_handed_rt);
+  std::printf("%-42s %9.1f %9.1f\n", "  round trip inside the handler", s_hrt.p50_us, s_hrt.p99_us);
   PrintRow("composed (c): (b) + bare INSERT+COMMIT", echo_audited);
+  std::printf("%-42s %9.1f %9.1f\n", "  INSERT+COMMIT inside the handler", s_ins.p50_us,
+              s_ins.p99_us);
   PrintRow("MoveAbsolute acknowledged (gateway)", move);
   const auto s_to = Summarize(g_to_created), s_from = Summarize(g_from_created);
   std::printf("%-42s %9.1f %9.1f\n", "  call sent -> command created", s_to.p50_us, s_to.p99_us);
@@ -423,6 +450,9 @@ int main(int argc, char** argv) {
                                  {"composed_handed_over_p99_us", sch.p99_us},
                                  {"composed_audited_p50_us", scc.p50_us},
                                  {"composed_audited_p99_us", scc.p99_us},
+                                 {"inline_rt_in_handler_p50_us", s_irt.p50_us},
+                                 {"handed_rt_in_handler_p50_us", s_hrt.p50_us},
+                                 {"insert_in_handler_p50_us", s_ins.p50_us},
                                  {"cpu_us_per_call",
                                   {{"echo", echo.CpuUsPerCall()},
                                    {"udp", udp.CpuUsPerCall()},
@@ -442,6 +472,12 @@ int main(int argc, char** argv) {
                                  {"failed", g_errors},
                                  {"loadavg_before", load_before},
                                  {"loadavg_after", load_after}};
+  if (!only.empty()) {
+    std::printf("rows limited to %s: no @result lines\n", only.c_str());
+    (*gw)->Stop();
+    std::filesystem::remove_all(tmpl);
+    return 0;
+  }
   const std::string baseline = "bare gRPC unary echo + bare LinUDP round trip (same run)";
   drivegw::bench::Report(
       {"P1", "move_ack_ratio_p50", ratio_p50, "ratio", "<=1.3", baseline, detail});
