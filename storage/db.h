@@ -82,7 +82,7 @@ class Db {
   // Page size a NEW database file is created with (decision 1486); an existing file keeps its
   // own: SQLite fixes it with the first table, and in WAL mode only a VACUUM outside WAL could
   // change it, which Open never runs.
-  static constexpr int kNewDatabasePageSize = 1024;
+  static constexpr int kNewDatabasePageSize = 2048;
 
   // The parent directory must exist (the caller creates data_dir). `new_page_size` (512..65536,
   // a power of two) applies only if the file is still empty; benchmarks vary it.

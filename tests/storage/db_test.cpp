@@ -349,10 +349,10 @@ TEST(DbTest, Open_NewDatabase_GetsTheChosenPageSize) {
 
   // A size asked for explicitly (what audit_bench compares) applies the same way.
   const std::string other = dir.File("u.db");
-  auto db = Db::Open(other, Durability::kProcessCrash, 2048);
+  auto db = Db::Open(other, Durability::kProcessCrash, 1024);
   ASSERT_TRUE(db.ok()) << db.status();
   ASSERT_TRUE(db->Exec("CREATE TABLE t (x INTEGER)").ok());
-  EXPECT_EQ(*db->PageSize(), 2048);
+  EXPECT_EQ(*db->PageSize(), 1024);
 }
 
 TEST(DbTest, Open_ExistingDatabase_KeepsItsPageSizeAndItsRows) {
@@ -370,7 +370,7 @@ TEST(DbTest, Open_ExistingDatabase_KeepsItsPageSizeAndItsRows) {
     ASSERT_EQ(log.Append(e), absl::OkStatus());
   }
   ASSERT_EQ(HeaderPageSize(path), 4096);
-  for (int page_size : {Db::kNewDatabasePageSize, 2048}) {
+  for (int page_size : {Db::kNewDatabasePageSize, 1024}) {
     auto db = Db::Open(path, Durability::kProcessCrash, page_size);
     ASSERT_TRUE(db.ok()) << db.status();
     EXPECT_EQ(*db->PageSize(), 4096);
