@@ -62,10 +62,11 @@ double Percentile(std::vector<double>& v, double p) {
   return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
 }
 
-// CPU seconds (user + system) of the whole process so far.
-double CpuSeconds() {
+// CPU seconds (user + system) so far of the whole process, or of the calling thread
+// (RUSAGE_THREAD).
+double CpuSeconds(int who = RUSAGE_SELF) {
   rusage u{};
-  ::getrusage(RUSAGE_SELF, &u);
+  ::getrusage(who, &u);
   auto s = [](const timeval& t) { return static_cast<double>(t.tv_sec) + t.tv_usec / 1e6; };
   return s(u.ru_utime) + s(u.ru_stime);
 }
@@ -127,14 +128,6 @@ std::vector<int> PageSizes() {
   }
   if (out.empty()) out.push_back(storage::Db::kNewDatabasePageSize);
   return out;
-}
-
-// CPU seconds (user + system) of the calling thread.
-double ThreadCpuSeconds() {
-  rusage u{};
-  ::getrusage(RUSAGE_THREAD, &u);
-  auto s = [](const timeval& t) { return static_cast<double>(t.tv_sec) + t.tv_usec / 1e6; };
-  return s(u.ru_utime) + s(u.ru_stime);
 }
 
 // Bytes this process passed to write/pwrite so far (/proc/self/io "wchar"): WAL frames + the
@@ -398,7 +391,7 @@ LoopRun RunAppendLoop(double seconds, bool full_sync, int page_size, int64_t pre
   }
   std::vector<double> lat;
   lat.reserve(1 << 16);
-  const double cpu0 = ThreadCpuSeconds();
+  const double cpu0 = CpuSeconds(RUSAGE_THREAD);
   const double written0 = WrittenBytes();
   const Steady::time_point end = Steady::now() + std::chrono::duration_cast<Steady::duration>(
                                                      std::chrono::duration<double>(seconds));
@@ -411,7 +404,7 @@ LoopRun RunAppendLoop(double seconds, bool full_sync, int page_size, int64_t pre
   LoopRun r;
   r.appends = static_cast<int64_t>(lat.size());
   const double n = static_cast<double>(std::max<int64_t>(1, r.appends));
-  r.cpu_us = (ThreadCpuSeconds() - cpu0) * 1e6 / n;
+  r.cpu_us = (CpuSeconds(RUSAGE_THREAD) - cpu0) * 1e6 / n;
   r.written_bytes = (WrittenBytes() - written0) / n;
   r.p50_us = Percentile(lat, 0.50);
   r.p99_us = Percentile(lat, 0.99);

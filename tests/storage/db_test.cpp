@@ -355,6 +355,18 @@ TEST(DbTest, Open_NewDatabase_GetsTheChosenPageSize) {
   EXPECT_EQ(*db->PageSize(), 1024);
 }
 
+// One audited MoveAbsolute by `principal` on a migrated database.
+void AppendMove(Db& db, const char* principal) {
+  AuditLog log(db);
+  AuditEntry e;
+  e.principal = principal;
+  e.action = "MoveAbsolute";
+  ASSERT_EQ(log.Append(e), absl::OkStatus());
+  auto report = log.Verify();
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_TRUE(report->ok);
+}
+
 TEST(DbTest, Open_ExistingDatabase_KeepsItsPageSizeAndItsRows) {
   TempDir dir;
   const std::string path = dir.File("t.db");
@@ -363,11 +375,7 @@ TEST(DbTest, Open_ExistingDatabase_KeepsItsPageSizeAndItsRows) {
     auto db = Db::Open(path, Durability::kProcessCrash, 4096);
     ASSERT_TRUE(db.ok()) << db.status();
     ASSERT_EQ(Migrate(*db), absl::OkStatus());
-    AuditLog log(*db);
-    AuditEntry e;
-    e.principal = "before";
-    e.action = "MoveAbsolute";
-    ASSERT_EQ(log.Append(e), absl::OkStatus());
+    AppendMove(*db, "before");
   }
   ASSERT_EQ(HeaderPageSize(path), 4096);
   for (int page_size : {Db::kNewDatabasePageSize, 1024}) {
@@ -377,14 +385,7 @@ TEST(DbTest, Open_ExistingDatabase_KeepsItsPageSizeAndItsRows) {
     ASSERT_EQ(Migrate(*db), absl::OkStatus());
     // It stays writable with its own pages, the chain continues, and no VACUUM ran behind the
     // operator's back (the header still says 4096).
-    AuditLog log(*db);
-    AuditEntry e;
-    e.principal = "after";
-    e.action = "MoveAbsolute";
-    ASSERT_EQ(log.Append(e), absl::OkStatus());
-    auto report = log.Verify();
-    ASSERT_TRUE(report.ok()) << report.status();
-    EXPECT_TRUE(report->ok);
+    AppendMove(*db, "after");
   }
   EXPECT_EQ(HeaderPageSize(path), 4096);
   auto db = Db::Open(path);
