@@ -10,6 +10,11 @@
 // adds audit_log's secondary indexes as the migrations define them (what the queries of issue 7
 // need).
 // Run: build/bench/audit_bench [seconds per run = 2] [rounds = 3]
+// DGW_BENCH_PAGE_SIZES=4096,1024 runs every scenario once per page size of a new database (both
+// sides), interleaved; DGW_BENCH_APPEND_LOOP=1 instead times one caller's appends (K = 1, what a
+// MoveAbsolute waits for) on a log already holding DGW_BENCH_PREFILL (20000) rows;
+// DGW_BENCH_SETS=1 times what a page size does to the other tables (the largest curve set the
+// tests use saved, read, updated) and to start-up (open + quick_check + migrate of that file).
 #include <sqlite3.h>
 #include <stdlib.h>
 #include <sys/resource.h>
@@ -20,14 +25,18 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "bench/report.h"
 #include "storage/audit_log.h"
+#include "storage/curve_set_repo.h"
 #include "storage/db.h"
 #include "storage/migrations.h"
 
@@ -53,10 +62,11 @@ double Percentile(std::vector<double>& v, double p) {
   return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
 }
 
-// CPU seconds (user + system) of the whole process so far.
-double CpuSeconds() {
+// CPU seconds (user + system) so far of the whole process, or of the calling thread
+// (RUSAGE_THREAD).
+double CpuSeconds(int who = RUSAGE_SELF) {
   rusage u{};
-  ::getrusage(RUSAGE_SELF, &u);
+  ::getrusage(who, &u);
   auto s = [](const timeval& t) { return static_cast<double>(t.tv_sec) + t.tv_usec / 1e6; };
   return s(u.ru_utime) + s(u.ru_stime);
 }
@@ -105,6 +115,33 @@ std::string ExtraPragmas() {
   return p != nullptr ? p : "";
 }
 
+// Page sizes of the new databases to compare (DGW_BENCH_PAGE_SIZES, comma-separated); the
+// gateway's own (storage::Db::kNewDatabasePageSize) by default.
+std::vector<int> PageSizes() {
+  std::vector<int> out;
+  if (const char* p = std::getenv("DGW_BENCH_PAGE_SIZES"); p != nullptr) {
+    std::stringstream in(p);
+    std::string item;
+    while (std::getline(in, item, ',')) {
+      if (!item.empty()) out.push_back(std::atoi(item.c_str()));
+    }
+  }
+  if (out.empty()) out.push_back(storage::Db::kNewDatabasePageSize);
+  return out;
+}
+
+// Bytes this process passed to write/pwrite so far (/proc/self/io "wchar"): WAL frames + the
+// checkpoints' page writes.
+double WrittenBytes() {
+  std::ifstream io("/proc/self/io");
+  std::string key;
+  double value = 0;
+  while (io >> key >> value) {
+    if (key == "wchar:") return value;
+  }
+  return 0;
+}
+
 struct AuditRun {
   double per_s = 0;
   double rows_per_txn = 1;  // K for the baseline
@@ -140,9 +177,9 @@ int CountFrames(void* arg, sqlite3* db, const char* name, int frames) {
   return SQLITE_OK;
 }
 
-AuditRun RunAudited(int threads, double seconds, bool full_sync) {
+AuditRun RunAudited(int threads, double seconds, bool full_sync, int page_size) {
   RunDir dir(absl::StrCat("audit", threads));
-  auto db = storage::Db::Open(dir.File());
+  auto db = storage::Db::Open(dir.File(), storage::Durability::kProcessCrash, page_size);
   if (!db.ok()) Die(db.status().ToString());
   if (full_sync && !db->Exec("PRAGMA synchronous=FULL").ok()) Die("synchronous=FULL");
   if (!ExtraPragmas().empty() && !db->Exec(ExtraPragmas()).ok()) Die("DGW_BENCH_PRAGMAS");
@@ -241,7 +278,7 @@ const std::string& AuditLogTriggers() {
 }
 
 // The bare loop: raw sqlite3, same PRAGMAs as storage::Db::Open, K rows per transaction.
-BareRun RunBare(double rows_per_txn, double seconds, bool full_sync, BareTable table,
+BareRun RunBare(double rows_per_txn, double seconds, bool full_sync, BareTable table, int page_size,
                 bool count_frames = false) {
   const bool indexed = table != BareTable::kPlain;
   RunDir dir(table == BareTable::kPlain     ? "bare"
@@ -253,7 +290,8 @@ BareRun RunBare(double rows_per_txn, double seconds, bool full_sync, BareTable t
       sqlite3_open_v2(dir.File().c_str(), &db,
                       SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX, nullptr),
       "open");
-  const std::string pragmas = absl::StrCat("PRAGMA busy_timeout=5000; PRAGMA journal_mode=WAL; ",
+  const std::string pragmas = absl::StrCat("PRAGMA busy_timeout=5000; PRAGMA page_size=", page_size,
+                                           "; PRAGMA journal_mode=WAL; ",
                                            "PRAGMA synchronous=", full_sync ? "FULL" : "NORMAL",
                                            "; PRAGMA foreign_keys=ON; ", ExtraPragmas());
   Check(db, sqlite3_exec(db, pragmas.c_str(), nullptr, nullptr, nullptr), "pragmas");
@@ -329,8 +367,179 @@ BareRun RunBare(double rows_per_txn, double seconds, bool full_sync, BareTable t
           static_cast<double>(frames.frames) / static_cast<double>(rows)};
 }
 
+// One caller, K = 1 (what MoveAbsolute waits for before its reply, decision 017), on a log
+// that already holds `prefill` rows: wall time per append (p50, p99), the caller's CPU per
+// append (it is the writer: no other thread touches the database) and bytes written per append.
+struct LoopRun {
+  double p50_us = 0, p99_us = 0, p999_us = 0, max_us = 0, cpu_us = 0, written_bytes = 0;
+  int64_t appends = 0;
+};
+
+LoopRun RunAppendLoop(double seconds, bool full_sync, int page_size, int64_t prefill) {
+  RunDir dir(absl::StrCat("loop", page_size));
+  auto db = storage::Db::Open(
+      dir.File(), full_sync ? storage::Durability::kPowerLoss : storage::Durability::kProcessCrash,
+      page_size);
+  if (!db.ok()) Die(db.status().ToString());
+  if (!ExtraPragmas().empty() && !db->Exec(ExtraPragmas()).ok()) Die("DGW_BENCH_PRAGMAS");
+  if (absl::Status m = storage::Migrate(*db); !m.ok()) Die(m.ToString());
+  storage::AuditLog log(*db);
+  for (int64_t i = 0; i < prefill; ++i) {
+    if (absl::Status s = log.Append(MoveEntry(static_cast<int>(i % 8), i)); !s.ok()) {
+      Die(s.ToString());
+    }
+  }
+  std::vector<double> lat;
+  lat.reserve(1 << 16);
+  const double cpu0 = CpuSeconds(RUSAGE_THREAD);
+  const double written0 = WrittenBytes();
+  const Steady::time_point end = Steady::now() + std::chrono::duration_cast<Steady::duration>(
+                                                     std::chrono::duration<double>(seconds));
+  for (int64_t i = prefill; Steady::now() < end; ++i) {
+    const storage::AuditEntry e = MoveEntry(static_cast<int>(i % 8), i);
+    const Steady::time_point t0 = Steady::now();
+    if (absl::Status s = log.Append(e); !s.ok()) Die(s.ToString());
+    lat.push_back(std::chrono::duration<double, std::micro>(Steady::now() - t0).count());
+  }
+  LoopRun r;
+  r.appends = static_cast<int64_t>(lat.size());
+  const double n = static_cast<double>(std::max<int64_t>(1, r.appends));
+  r.cpu_us = (CpuSeconds(RUSAGE_THREAD) - cpu0) * 1e6 / n;
+  r.written_bytes = (WrittenBytes() - written0) / n;
+  r.p50_us = Percentile(lat, 0.50);
+  r.p99_us = Percentile(lat, 0.99);
+  r.p999_us = Percentile(lat, 0.999);
+  r.max_us = lat.empty() ? 0 : lat.back();  // sorted by Percentile
+  auto v = log.Verify();
+  if (!v.ok() || !v->ok || v->verified_entries != prefill + r.appends + 1) {
+    Die("the chain does not verify after the append loop");
+  }
+  return r;
+}
+
+// DGW_BENCH_APPEND_LOOP=1: RunAppendLoop per page size, interleaved rounds, medians and spread.
+int AppendLoopMain(double seconds, int rounds, bool full_sync) {
+  const char* p = std::getenv("DGW_BENCH_PREFILL");
+  const int64_t prefill = p != nullptr ? std::atoll(p) : 20000;
+  const std::vector<int> sizes = PageSizes();
+  std::vector<std::vector<LoopRun>> runs(sizes.size());
+  for (int round = 0; round < rounds; ++round) {
+    for (size_t i = 0; i < sizes.size(); ++i) {
+      runs[i].push_back(RunAppendLoop(seconds, full_sync, sizes[i], prefill));
+      const LoopRun& r = runs[i].back();
+      std::printf(
+          "round %d page_size %d: %lld appends, p50 %.1f µs, p99 %.1f µs, p99.9 %.0f µs, max %.0f "
+          "µs, CPU %.1f µs, written %.0f B per append, load %.2f\n",
+          round, sizes[i], static_cast<long long>(r.appends), r.p50_us, r.p99_us, r.p999_us,
+          r.max_us, r.cpu_us, r.written_bytes, LoadAverage());
+    }
+  }
+  std::printf(
+      "\n| page size | appends/run | p50 µs (min-max) | p99 µs (min-max) | CPU µs/append "
+      "(min-max) | bytes written/append |\n|---|---|---|---|---|---|\n");
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    std::vector<double> n, p50, p99, cpu, wr;
+    for (const LoopRun& r : runs[i]) {
+      n.push_back(static_cast<double>(r.appends));
+      p50.push_back(r.p50_us);
+      p99.push_back(r.p99_us);
+      cpu.push_back(r.cpu_us);
+      wr.push_back(r.written_bytes);
+    }
+    auto range = [](const std::vector<double>& v) {
+      const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+      return absl::StrFormat("%.1f (%.1f-%.1f)", Median(v), *lo, *hi);
+    };
+    std::printf("| %d | %.0f | %s | %s | %s | %.0f |\n", sizes[i], Median(n), range(p50).c_str(),
+                range(p99).c_str(), range(cpu).c_str(), Median(wr));
+  }
+  std::printf("load %.2f, prefill %lld rows\n", LoadAverage(), static_cast<long long>(prefill));
+  return 0;
+}
+
+// 30 LinMot curves of the most points a curve holds (tests/e2e/curve_sets_e2e_test.cpp's
+// GrpcMessageLimit set, ≈ 4.5 MiB of JSON): the largest set the tests store.
+drivegw::CurveSet BigCurveSet() {
+  drivegw::CurveSet set{"big", "the largest set the tests use", {}};
+  for (int id = 1; id <= 30; ++id) {
+    drivegw::LinMotParametricCurve lm;
+    lm.curve_id = id;
+    lm.x_length_s = 1;
+    for (int i = 0; i < drivegw::LinMotParametricCurve::kMaxPoints; ++i)
+      lm.points.push_back(-1 - i);
+    set.curves.push_back({absl::StrCat("c", id), "", lm});
+  }
+  return set;
+}
+
+double MsSince(Steady::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Steady::now() - t0).count();
+}
+
+// DGW_BENCH_SETS=1: per page size, on a database whose audit log holds DGW_BENCH_PREFILL rows:
+// CurveSetRepo Create / Get / Update of BigCurveSet, then close and time the start-up's part
+// (Db::Open, PRAGMA quick_check as server/database_check.cpp runs it, Migrate with nothing to do).
+int SetsMain(int rounds) {
+  const char* p = std::getenv("DGW_BENCH_PREFILL");
+  const int64_t prefill = p != nullptr ? std::atoll(p) : 20000;
+  const std::vector<int> sizes = PageSizes();
+  const drivegw::CurveSet big = BigCurveSet();
+  std::vector<std::vector<double>> create(sizes.size()), get(sizes.size()), update(sizes.size()),
+      start(sizes.size()), file_mb(sizes.size());
+  for (int round = 0; round < rounds; ++round) {
+    for (size_t i = 0; i < sizes.size(); ++i) {
+      RunDir dir(absl::StrCat("sets", sizes[i]));
+      {
+        auto db = storage::Db::Open(dir.File(), storage::Durability::kProcessCrash, sizes[i]);
+        if (!db.ok()) Die(db.status().ToString());
+        if (absl::Status m = storage::Migrate(*db); !m.ok()) Die(m.ToString());
+        storage::AuditLog log(*db);
+        for (int64_t n = 0; n < prefill; ++n) {
+          if (!log.Append(MoveEntry(static_cast<int>(n % 8), n)).ok()) Die("prefill");
+        }
+        storage::CurveSetRepo repo(*db);
+        Steady::time_point t0 = Steady::now();
+        auto created = repo.Create(big, "bench");
+        if (!created.ok()) Die(created.status().ToString());
+        create[i].push_back(MsSince(t0));
+        t0 = Steady::now();
+        auto got = repo.Get("big");
+        if (!got.ok() || got->set.curves.size() != big.curves.size()) Die("get");
+        get[i].push_back(MsSince(t0));
+        t0 = Steady::now();
+        auto updated = repo.Update(big, created->etag, "bench", "again");
+        if (!updated.ok()) Die(updated.status().ToString());
+        update[i].push_back(MsSince(t0));
+        if (!db->Exec("PRAGMA wal_checkpoint(TRUNCATE)").ok()) Die("checkpoint");
+      }
+      file_mb[i].push_back(static_cast<double>(fs::file_size(dir.File())) / (1 << 20));
+      const Steady::time_point t0 = Steady::now();
+      auto db = storage::Db::Open(dir.File());
+      if (!db.ok()) Die(db.status().ToString());
+      auto check = db->Prepare("PRAGMA quick_check");
+      if (!check.ok() || !*check->Step() || check->ColumnText(0) != "ok") Die("quick_check");
+      if (absl::Status m = storage::Migrate(*db); !m.ok()) Die(m.ToString());
+      start[i].push_back(MsSince(t0));
+      std::printf(
+          "round %d page_size %d: create %.1f ms, get %.1f ms, update %.1f ms, open + "
+          "quick_check + migrate %.1f ms (%.1f MiB), load %.2f\n",
+          round, sizes[i], create[i].back(), get[i].back(), update[i].back(), start[i].back(),
+          file_mb[i].back(), LoadAverage());
+    }
+  }
+  std::printf(
+      "\n| page size | create ms | get ms | update ms | open + quick_check + migrate ms "
+      "| file MiB |\n|---|---|---|---|---|---|\n");
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    std::printf("| %d | %.1f | %.1f | %.1f | %.1f | %.1f |\n", sizes[i], Median(create[i]),
+                Median(get[i]), Median(update[i]), Median(start[i]), Median(file_mb[i]));
+  }
+  return 0;
+}
+
 struct Scenario {
   int threads;
+  int page_size;
   std::vector<double> audited, bare, bare_idx, k, p50, p99, cpu, bare_cpu, bare_idx_cpu;
 };
 
@@ -356,7 +565,8 @@ int main(int argc, char** argv) {
       std::vector<double> rate[3], cpu[3], frames[3];
       for (int round = 0; round < rounds; ++round) {
         for (int t = 0; t < 3; ++t) {
-          const BareRun b = RunBare(k, seconds, full_sync, static_cast<BareTable>(t), true);
+          const BareRun b =
+              RunBare(k, seconds, full_sync, static_cast<BareTable>(t), PageSizes().front(), true);
           rate[t].push_back(b.per_s);
           cpu[t].push_back(b.cpu_us);
           frames[t].push_back(b.frames_per_row);
@@ -373,35 +583,44 @@ int main(int argc, char** argv) {
   }
 
   // DGW_BENCH_THREADS=32 runs one scenario (profiling).
+  if (std::getenv("DGW_BENCH_SETS") != nullptr) return SetsMain(rounds);
+  if (std::getenv("DGW_BENCH_APPEND_LOOP") != nullptr) {
+    return AppendLoopMain(seconds, rounds, full_sync);
+  }
   std::vector<Scenario> scenarios;
+  std::vector<int> threads = {1, 8, 32};
   if (const char* t = std::getenv("DGW_BENCH_THREADS"); t != nullptr) {
-    scenarios.push_back({std::max(1, std::atoi(t))});
-  } else {
-    for (int n : {1, 8, 32}) scenarios.push_back({n});
+    threads = {std::max(1, std::atoi(t))};
+  }
+  for (int n : threads) {
+    for (int page_size : PageSizes()) scenarios.push_back({n, page_size});
   }
   // Interleaved rounds: audited, then its baselines with the K it achieved, per thread count.
   for (int round = 0; round < rounds; ++round) {
     for (Scenario& s : scenarios) {
-      const AuditRun a = RunAudited(s.threads, seconds, full_sync);
+      const AuditRun a = RunAudited(s.threads, seconds, full_sync, s.page_size);
       s.audited.push_back(a.per_s);
       s.k.push_back(a.rows_per_txn);
       s.p50.push_back(a.p50_us);
       s.p99.push_back(a.p99_us);
       s.cpu.push_back(a.cpu_us);
       if (std::getenv("DGW_BENCH_AUDIT_ONLY") != nullptr) continue;  // profiling the gateway side
-      const BareRun b = RunBare(a.rows_per_txn, seconds, full_sync, BareTable::kPlain);
+      const BareRun b = RunBare(a.rows_per_txn, seconds, full_sync, BareTable::kPlain, s.page_size);
       s.bare.push_back(b.per_s);
       s.bare_cpu.push_back(b.cpu_us);
-      const BareRun bi = RunBare(a.rows_per_txn, seconds, full_sync, BareTable::kIndexed);
+      const BareRun bi =
+          RunBare(a.rows_per_txn, seconds, full_sync, BareTable::kIndexed, s.page_size);
       s.bare_idx.push_back(bi.per_s);
       s.bare_idx_cpu.push_back(bi.cpu_us);
     }
   }
 
   std::printf(
-      "\n| threads | audited/s | rows/txn K | p50 µs | p99 µs | bare/s (K) | ratio | "
+      "\n| threads | page size | audited/s | rows/txn K | p50 µs | p99 µs | bare/s (K) | ratio | "
       "bare+indexes/s | ratio | CPU µs/entry audited / bare / bare+idx |\n"
-      "|---|---|---|---|---|---|---|---|---|---|\n");
+      "|---|---|---|---|---|---|---|---|---|---|---|\n");
+  // Several page sizes compare candidates: no @result lines then (they would mix them).
+  const bool of_record = PageSizes().size() == 1;
   double worst_rate = 0, worst_ratio = 0, worst_ratio_idx = 0;
   nlohmann::json detail = nlohmann::json::object();
   bool first = true;
@@ -409,9 +628,10 @@ int main(int argc, char** argv) {
     const double a = Median(s.audited), b = Median(s.bare), bi = Median(s.bare_idx);
     const double k = Median(s.k), ratio = a / b, ratio_idx = a / bi;
     std::printf(
-        "| %d | %.0f | %.1f | %.0f | %.0f | %.0f | %.2f | %.0f | %.2f | %.1f / %.1f / %.1f |\n",
-        s.threads, a, k, Median(s.p50), Median(s.p99), b, ratio, bi, ratio_idx, Median(s.cpu),
-        Median(s.bare_cpu), Median(s.bare_idx_cpu));
+        "| %d | %d | %.0f | %.1f | %.0f | %.0f | %.0f | %.2f | %.0f | %.2f | %.1f / %.1f / %.1f "
+        "|\n",
+        s.threads, s.page_size, a, k, Median(s.p50), Median(s.p99), b, ratio, bi, ratio_idx,
+        Median(s.cpu), Median(s.bare_cpu), Median(s.bare_idx_cpu));
     detail[absl::StrCat("threads_", s.threads)] = {
         {"audited_per_s", a},
         {"rows_per_txn", k},
@@ -435,6 +655,8 @@ int main(int argc, char** argv) {
   detail["seconds_per_run"] = seconds;
   detail["rounds"] = rounds;
   detail["load_average"] = LoadAverage();
+  detail["page_size"] = PageSizes().front();
+  if (!of_record) return 0;
   const std::string baseline =
       "bare sqlite3 insert loop, 1 thread, plain 14-column table, same row bytes, same PRAGMAs, "
       "K rows per transaction (K = audited run's mean)";

@@ -196,12 +196,14 @@ struct Db::Impl {
   sqlite3* db = nullptr;
   std::string path;
   mutable Mutex mu;
-  // BEGIN IMMEDIATE and COMMIT, prepared once: every audited command is one transaction, and
-  // sqlite3_exec parsed both each time (8 % of an append's profile, docs/performance.md P1
-  // 2026-12-07; audit_bench, 1 caller, interleaved: 28.6-30.3 -> 27.9-28.3 µs CPU per entry).
+  // BEGIN IMMEDIATE, COMMIT and ROLLBACK, prepared once (each on first use): every audited
+  // command is one transaction, and sqlite3_exec parsed the text each time (8 % of an append's
+  // profile, docs/performance.md P1 2026-12-07; audit_bench, 1 caller, interleaved:
+  // 28.6-30.3 -> 27.9-28.3 µs CPU per entry).
   // Finalized after close_v2 below, which defers the close until then.
   Statement begin;
   Statement commit;
+  Statement rollback;
 
   ~Impl() {
     // close_v2 defers the close until any statement still alive is finalized.
@@ -214,7 +216,7 @@ Db::Db(Db&& other) noexcept = default;
 Db& Db::operator=(Db&& other) noexcept = default;
 Db::~Db() = default;
 
-absl::StatusOr<Db> Db::Open(const std::string& path, Durability durability) {
+absl::StatusOr<Db> Db::Open(const std::string& path, Durability durability, int new_page_size) {
   auto impl = std::make_unique<Impl>();
   impl->path = path;
   const int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX;
@@ -227,6 +229,10 @@ absl::StatusOr<Db> Db::Open(const std::string& path, Durability durability) {
   Db db(std::move(impl));
   // busy_timeout first: switching to WAL needs a lock another process may briefly hold.
   DGW_RETURN_IF_ERROR(db.Exec("PRAGMA busy_timeout=5000"));
+  // Before journal_mode=WAL: switching an empty file to WAL writes its header, which fixes the
+  // page size, and WAL mode refuses a change afterwards (sqlite.org/pragma.html#pragma_page_size).
+  // For a file that already has a header SQLite ignores this: it keeps its page size.
+  DGW_RETURN_IF_ERROR(db.Exec(absl::StrCat("PRAGMA page_size=", new_page_size)));
   DGW_ASSIGN_OR_RETURN(Statement wal, db.Prepare("PRAGMA journal_mode=WAL"));
   DGW_ASSIGN_OR_RETURN(const bool row, wal.Step());
   const std::string mode = row ? wal.ColumnText(0) : "";
@@ -282,7 +288,7 @@ absl::Status Db::Transaction(const std::function<absl::Status()>& body) {
     if (status.ok()) return status;
   }
   // Rolling back after a failed COMMIT is right too: the transaction is still open then.
-  if (!sqlite3_get_autocommit(impl_->db)) Exec("ROLLBACK").IgnoreError();
+  if (!sqlite3_get_autocommit(impl_->db)) run(impl_->rollback, "ROLLBACK").IgnoreError();
   return status;
 }
 
@@ -296,6 +302,14 @@ absl::StatusOr<std::string> Db::JournalMode() {
   DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
   if (!row) return absl::InternalError("storage: PRAGMA journal_mode returned no row");
   return stmt.ColumnText(0);
+}
+
+absl::StatusOr<int> Db::PageSize() {
+  auto lock = Lock();
+  DGW_ASSIGN_OR_RETURN(Statement stmt, Prepare("PRAGMA page_size"));
+  DGW_ASSIGN_OR_RETURN(const bool row, stmt.Step());
+  if (!row) return absl::InternalError("storage: PRAGMA page_size returned no row");
+  return stmt.ColumnInt(0);
 }
 
 const std::string& Db::path() const { return impl_->path; }

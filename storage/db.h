@@ -79,9 +79,16 @@ class Db {
  public:
   using Mutex = std::recursive_mutex;
 
-  // The parent directory must exist (the caller creates data_dir).
+  // Page size a NEW database file is created with (decision 1486); an existing file keeps its
+  // own: SQLite fixes it with the first table, and in WAL mode only a VACUUM outside WAL could
+  // change it, which Open never runs.
+  static constexpr int kNewDatabasePageSize = 2048;
+
+  // The parent directory must exist (the caller creates data_dir). `new_page_size` (512..65536,
+  // a power of two) applies only if the file is still empty; benchmarks vary it.
   static absl::StatusOr<Db> Open(const std::string& path,
-                                 Durability durability = Durability::kProcessCrash);
+                                 Durability durability = Durability::kProcessCrash,
+                                 int new_page_size = kNewDatabasePageSize);
 
   Db(Db&& other) noexcept;
   Db& operator=(Db&& other) noexcept;
@@ -105,6 +112,8 @@ class Db {
   int64_t LastInsertRowId() const;
   // PRAGMA journal_mode as SQLite reports it ("wal" after a successful Open).
   absl::StatusOr<std::string> JournalMode();
+  // PRAGMA page_size: the file's page size (kNewDatabasePageSize for a file Open created).
+  absl::StatusOr<int> PageSize();
 
   const std::string& path() const;
   sqlite3* handle() const;

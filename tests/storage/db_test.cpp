@@ -6,8 +6,12 @@
 #include <sqlite3.h>
 
 #include <atomic>
+#include <cstdint>
 #include <filesystem>
+#include <fstream>
 
+#include "storage/audit_log.h"
+#include "storage/migrations.h"
 #include "tests/storage/temp_dir.h"
 
 namespace drivegw::storage {
@@ -306,6 +310,87 @@ TEST(DbTest, Transaction_BodyFails_RollsBackAndReturnsBodyError) {
 
   ASSERT_TRUE(db->Transaction([&] { return db->Exec("INSERT INTO t VALUES (2)"); }).ok());
   EXPECT_EQ(PragmaInt(*db, "SELECT COUNT(*) FROM t"), 1);
+}
+
+// The page size recorded in the file header (bytes 16-17, big-endian; 1 means 65536), read from
+// the file itself rather than from SQLite (sqlite.org/fileformat2.html §1.3.2).
+int HeaderPageSize(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char header[18] = {};
+  in.read(reinterpret_cast<char*>(header), sizeof(header));
+  EXPECT_EQ(in.gcount(), 18) << path;
+  const int size = header[16] << 8 | header[17];
+  return size == 1 ? 65536 : size;
+}
+
+TEST(DbTest, Open_NewDatabase_GetsTheChosenPageSize) {
+  TempDir dir;
+  const std::string path = dir.File("t.db");
+  {
+    auto db = Db::Open(path);
+    ASSERT_TRUE(db.ok()) << db.status();
+    ASSERT_TRUE(db->Exec("CREATE TABLE t (x INTEGER); INSERT INTO t VALUES (1)").ok());
+    ASSERT_EQ(db->Exec("PRAGMA wal_checkpoint(TRUNCATE)"), absl::OkStatus());
+    auto size = db->PageSize();
+    ASSERT_TRUE(size.ok()) << size.status();
+    EXPECT_EQ(*size, Db::kNewDatabasePageSize);
+    EXPECT_EQ(*db->JournalMode(), "wal");
+  }
+  EXPECT_EQ(HeaderPageSize(path), Db::kNewDatabasePageSize);
+  // Not what SQLite gives a new file by itself, so this test fails if Open does not set it.
+  sqlite3* raw = nullptr;
+  ASSERT_EQ(sqlite3_open(dir.File("raw.db").c_str(), &raw), SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(raw, "PRAGMA page_size", -1, &stmt, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
+  EXPECT_NE(sqlite3_column_int(stmt, 0), Db::kNewDatabasePageSize);
+  sqlite3_finalize(stmt);
+  sqlite3_close(raw);
+
+  // A size asked for explicitly (what audit_bench compares) applies the same way.
+  const std::string other = dir.File("u.db");
+  auto db = Db::Open(other, Durability::kProcessCrash, 1024);
+  ASSERT_TRUE(db.ok()) << db.status();
+  ASSERT_TRUE(db->Exec("CREATE TABLE t (x INTEGER)").ok());
+  EXPECT_EQ(*db->PageSize(), 1024);
+}
+
+// One audited MoveAbsolute by `principal` on a migrated database.
+void AppendMove(Db& db, const char* principal) {
+  AuditLog log(db);
+  AuditEntry e;
+  e.principal = principal;
+  e.action = "MoveAbsolute";
+  ASSERT_EQ(log.Append(e), absl::OkStatus());
+  auto report = log.Verify();
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_TRUE(report->ok);
+}
+
+TEST(DbTest, Open_ExistingDatabase_KeepsItsPageSizeAndItsRows) {
+  TempDir dir;
+  const std::string path = dir.File("t.db");
+  // A gateway's database from before decision 1486: 4096-byte pages, migrated, audited.
+  {
+    auto db = Db::Open(path, Durability::kProcessCrash, 4096);
+    ASSERT_TRUE(db.ok()) << db.status();
+    ASSERT_EQ(Migrate(*db), absl::OkStatus());
+    AppendMove(*db, "before");
+  }
+  ASSERT_EQ(HeaderPageSize(path), 4096);
+  for (int page_size : {Db::kNewDatabasePageSize, 1024}) {
+    auto db = Db::Open(path, Durability::kProcessCrash, page_size);
+    ASSERT_TRUE(db.ok()) << db.status();
+    EXPECT_EQ(*db->PageSize(), 4096);
+    ASSERT_EQ(Migrate(*db), absl::OkStatus());
+    // It stays writable with its own pages, the chain continues, and no VACUUM ran behind the
+    // operator's back (the header still says 4096).
+    AppendMove(*db, "after");
+  }
+  EXPECT_EQ(HeaderPageSize(path), 4096);
+  auto db = Db::Open(path);
+  ASSERT_TRUE(db.ok()) << db.status();
+  EXPECT_EQ(PragmaInt(*db, "SELECT COUNT(*) FROM audit_log WHERE action = 'MoveAbsolute'"), 3);
 }
 
 TEST(DbTest, Move_TransfersConnection_MovedFromDestructsSafely) {
