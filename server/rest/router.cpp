@@ -146,17 +146,16 @@ absl::StatusOr<std::vector<const pb::FieldDescriptor*>> ResolvePath(const pb::De
 
 // Sets (or, for repeated fields, adds) a scalar field from its text form. The error says what
 // the value is not ("\"abc\" is not a valid uint32").
-absl::Status SetScalar(pb::Message* msg, const pb::FieldDescriptor* f, absl::string_view text) {
+absl::Status SetScalar(pb::Message* msg, const pb::FieldDescriptor* f, absl::string_view value) {
   const pb::Reflection* r = msg->GetReflection();
   const bool rep = f->is_repeated();
-  const std::string value(text);
   auto bad = [&](absl::string_view type) {
     return absl::InvalidArgumentError(
         absl::StrCat("\"", absl::CHexEscape(value), "\" is not a valid ", type));
   };
   switch (f->cpp_type()) {
     case pb::FieldDescriptor::CPPTYPE_STRING: {
-      std::string v = value;
+      std::string v(value);
       if (f->type() == pb::FieldDescriptor::TYPE_BYTES && !absl::Base64Unescape(value, &v) &&
           !absl::WebSafeBase64Unescape(value, &v)) {
         return bad("base64 bytes value");
@@ -178,7 +177,7 @@ absl::Status SetScalar(pb::Message* msg, const pb::FieldDescriptor* f, absl::str
     }
     case pb::FieldDescriptor::CPPTYPE_UINT32: {
       uint32_t v;
-      if (value.find('-') != std::string::npos || !absl::SimpleAtoi(value, &v)) {
+      if (value.find('-') != absl::string_view::npos || !absl::SimpleAtoi(value, &v)) {
         return bad("uint32");
       }
       rep ? r->AddUInt32(msg, f, v) : r->SetUInt32(msg, f, v);
@@ -186,7 +185,7 @@ absl::Status SetScalar(pb::Message* msg, const pb::FieldDescriptor* f, absl::str
     }
     case pb::FieldDescriptor::CPPTYPE_UINT64: {
       uint64_t v;
-      if (value.find('-') != std::string::npos || !absl::SimpleAtoi(value, &v)) {
+      if (value.find('-') != absl::string_view::npos || !absl::SimpleAtoi(value, &v)) {
         return bad("uint64");
       }
       rep ? r->AddUInt64(msg, f, v) : r->SetUInt64(msg, f, v);
@@ -218,7 +217,7 @@ absl::Status SetScalar(pb::Message* msg, const pb::FieldDescriptor* f, absl::str
     }
     case pb::FieldDescriptor::CPPTYPE_ENUM: {
       int number;
-      if (const auto* ev = f->enum_type()->FindValueByName(value)) {
+      if (const auto* ev = f->enum_type()->FindValueByName(std::string(value))) {
         number = ev->number();
       } else if (!absl::SimpleAtoi(value, &number) ||
                  f->enum_type()->FindValueByNumber(number) == nullptr) {
