@@ -56,6 +56,17 @@ bool WellEncoded(std::string_view in) {
   return true;
 }
 
+// Position of the ':' that starts a path's verb: the last ':' of its last segment (an encoded
+// %3A is data); nullopt when that segment has none.
+std::optional<size_t> VerbColon(std::string_view path) {
+  const size_t slash = path.rfind('/');
+  const size_t colon = path.rfind(':');
+  if (colon == std::string_view::npos || (slash != std::string_view::npos && colon < slash)) {
+    return std::nullopt;
+  }
+  return colon;
+}
+
 class Parser {
  public:
   explicit Parser(std::string_view text) : text_(text) {}
@@ -159,6 +170,11 @@ class Parser {
 
 bool IsPercentEncoded(std::string_view in) { return WellEncoded(in); }
 
+std::string_view PathVerb(std::string_view path) {
+  const std::optional<size_t> colon = VerbColon(path);
+  return colon ? path.substr(*colon + 1) : std::string_view();
+}
+
 std::optional<std::string> PercentDecode(std::string_view in, bool keep_slash, bool plus_as_space) {
   std::string out;
   out.reserve(in.size());
@@ -205,13 +221,9 @@ bool PathTemplate::Fits(std::string_view path) const {
   if (path.empty() || path.front() != '/' || segments_.empty()) return false;
   path.remove_prefix(1);
   if (!verb_.empty()) {
-    const size_t slash = path.rfind('/');
-    const size_t colon = path.rfind(':');
-    if (colon == std::string_view::npos || (slash != std::string_view::npos && colon < slash)) {
-      return false;
-    }
-    if (path.substr(colon + 1) != verb_) return false;
-    path = path.substr(0, colon);
+    const std::optional<size_t> colon = VerbColon(path);
+    if (!colon || path.substr(*colon + 1) != verb_) return false;
+    path = path.substr(0, *colon);
   }
   const size_t raw_count = static_cast<size_t>(std::count(path.begin(), path.end(), '/')) + 1;
   const bool multi_last = segments_.back().kind == SegmentKind::kMulti;
@@ -248,13 +260,9 @@ std::optional<std::vector<PathBinding>> PathTemplate::Match(std::string_view pat
   path.remove_prefix(1);
   // The verb is the suffix after the last ':' of the last segment (an encoded %3A is data).
   if (!verb_.empty()) {
-    const size_t slash = path.rfind('/');
-    const size_t colon = path.rfind(':');
-    if (colon == std::string_view::npos || (slash != std::string_view::npos && colon < slash)) {
-      return std::nullopt;
-    }
-    if (path.substr(colon + 1) != verb_) return std::nullopt;
-    path = path.substr(0, colon);
+    const std::optional<size_t> colon = VerbColon(path);
+    if (!colon || path.substr(*colon + 1) != verb_) return std::nullopt;
+    path = path.substr(0, *colon);
   }
   // Inline storage: the API's templates have at most a handful of segments (decision 1362).
   absl::InlinedVector<std::string_view, 8> raw;

@@ -61,6 +61,12 @@ class PathTemplate {
   std::string verb_;
 };
 
+// The verb a request path (no query string) carries for Fits and Match: what follows the last
+// ':' of its last segment ("enable" in "/v1/drives/x1:enable"), empty when that segment has no
+// ':'. A template with a verb fits only paths whose PathVerb equals it, so the router skips the
+// other verbs' templates with one comparison (issue 10, P4; decision 1364).
+std::string_view PathVerb(std::string_view path);
+
 // True when every '%' in `in` starts a complete escape (PercentDecode(in) succeeds).
 bool IsPercentEncoded(std::string_view in);
 

@@ -55,8 +55,8 @@ constexpr int kUnimplemented = 12;
 constexpr int kInternal = 13;
 constexpr int kUnavailable = 14;
 constexpr size_t kMaxStaticFile = 32u << 20;
-// First arena block of a direct response, on the stack: x1's Drive needs ≈ 2 KB (a list of
-// many drives continues in heap blocks).
+// First arena block of a request message and a direct route's response, on the stack: x1's
+// Drive needs ≈ 2 KB (a list of many drives, or a large JSON body, continues in heap blocks).
 constexpr size_t kDirectArenaBlock = 4096;
 
 pb::util::JsonPrintOptions PrintOptions() {
@@ -146,17 +146,16 @@ absl::StatusOr<std::vector<const pb::FieldDescriptor*>> ResolvePath(const pb::De
 
 // Sets (or, for repeated fields, adds) a scalar field from its text form. The error says what
 // the value is not ("\"abc\" is not a valid uint32").
-absl::Status SetScalar(pb::Message* msg, const pb::FieldDescriptor* f, absl::string_view text) {
+absl::Status SetScalar(pb::Message* msg, const pb::FieldDescriptor* f, absl::string_view value) {
   const pb::Reflection* r = msg->GetReflection();
   const bool rep = f->is_repeated();
-  const std::string value(text);
   auto bad = [&](absl::string_view type) {
     return absl::InvalidArgumentError(
         absl::StrCat("\"", absl::CHexEscape(value), "\" is not a valid ", type));
   };
   switch (f->cpp_type()) {
     case pb::FieldDescriptor::CPPTYPE_STRING: {
-      std::string v = value;
+      std::string v(value);
       if (f->type() == pb::FieldDescriptor::TYPE_BYTES && !absl::Base64Unescape(value, &v) &&
           !absl::WebSafeBase64Unescape(value, &v)) {
         return bad("base64 bytes value");
@@ -178,7 +177,7 @@ absl::Status SetScalar(pb::Message* msg, const pb::FieldDescriptor* f, absl::str
     }
     case pb::FieldDescriptor::CPPTYPE_UINT32: {
       uint32_t v;
-      if (value.find('-') != std::string::npos || !absl::SimpleAtoi(value, &v)) {
+      if (value.find('-') != absl::string_view::npos || !absl::SimpleAtoi(value, &v)) {
         return bad("uint32");
       }
       rep ? r->AddUInt32(msg, f, v) : r->SetUInt32(msg, f, v);
@@ -186,7 +185,7 @@ absl::Status SetScalar(pb::Message* msg, const pb::FieldDescriptor* f, absl::str
     }
     case pb::FieldDescriptor::CPPTYPE_UINT64: {
       uint64_t v;
-      if (value.find('-') != std::string::npos || !absl::SimpleAtoi(value, &v)) {
+      if (value.find('-') != absl::string_view::npos || !absl::SimpleAtoi(value, &v)) {
         return bad("uint64");
       }
       rep ? r->AddUInt64(msg, f, v) : r->SetUInt64(msg, f, v);
@@ -218,7 +217,7 @@ absl::Status SetScalar(pb::Message* msg, const pb::FieldDescriptor* f, absl::str
     }
     case pb::FieldDescriptor::CPPTYPE_ENUM: {
       int number;
-      if (const auto* ev = f->enum_type()->FindValueByName(value)) {
+      if (const auto* ev = f->enum_type()->FindValueByName(std::string(value))) {
         number = ev->number();
       } else if (!absl::SimpleAtoi(value, &number) ||
                  f->enum_type()->FindValueByNumber(number) == nullptr) {
@@ -696,6 +695,7 @@ absl::Status AddRoutes(const pb::MethodDescriptor* m, const google::api::HttpRul
     route.max_segments = multi_last ? std::numeric_limits<size_t>::max() : segs.size();
   }
   route.method = m;
+  route.request_prototype = pb::MessageFactory::generated_factory()->GetPrototype(m->input_type());
   route.grpc_path = absl::StrCat("/", m->service()->full_name(), "/", m->name());
   route.server_streaming = m->server_streaming();
   out.push_back(std::move(route));
@@ -851,12 +851,16 @@ void Router::Handle(HttpRequest request, std::shared_ptr<ResponseSink> sink) noe
     // Routes are tried most specific first (ties in rule order) and only down to the first
     // fit's rank: the winner is the first fit of this method at that rank (Fits allocates
     // nothing; the winner's variables are bound once, below).
+    // A template with a verb fits only paths with that verb (PathVerb): for a drive's GET that
+    // skips the ≈ 25 ":verb" routes ranked above it without calling Fits (decision 1364).
     const size_t segments = static_cast<size_t>(std::count(path.begin(), path.end(), '/'));
+    const std::string_view verb = PathVerb(path);
     const Route* best = nullptr;
     int top_score = -1;
     for (const Route* route : by_specificity_) {
       if (route->specificity < top_score) break;
       if (segments < route->min_segments || segments > route->max_segments) continue;
+      if (!route->path.verb().empty() && route->path.verb() != verb) continue;
       if (!route->path.Fits(path)) continue;
       top_score = route->specificity;
       if (best == nullptr && route->http_method == method) best = route;
@@ -905,8 +909,16 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
                        std::string_view query, HttpRequest& request,
                        const std::shared_ptr<ResponseSink>& sink) noexcept {
   const pb::Descriptor* input = route.method->input_type();
-  std::unique_ptr<pb::Message> msg(
-      pb::MessageFactory::generated_factory()->GetPrototype(input)->New());
+  // The request message lives on an arena whose first block is this frame's, and so does a
+  // direct route's response (HandleDirect; decisions 1363, 1364): one arena per request, no
+  // heap allocation for the message or its path-bound strings. Nothing keeps the request past
+  // this call: the gRPC path serialises it below, the direct path reads it inline.
+  alignas(std::max_align_t) char block[kDirectArenaBlock];
+  pb::ArenaOptions arena_options;
+  arena_options.initial_block = block;
+  arena_options.initial_block_size = sizeof(block);
+  pb::Arena arena(arena_options);
+  pb::Message* msg = route.request_prototype->New(&arena);
   // 400 with "where: what" and, when a field is known, a google.rpc.BadRequest violation.
   auto bad_request = [&](const std::string& where, absl::string_view what, std::string field) {
     sink->OnResponse(ErrorResponse(400, kInvalidArgument, absl::StrCat(where, ": ", what),
@@ -925,7 +937,7 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
       wrapped = absl::StrCat("{\"", route.body, "\":", request.body, "}");
       json = &wrapped;
     }
-    if (auto s = pb::util::JsonStringToMessage(*json, msg.get(), parse); !s.ok()) {
+    if (auto s = pb::util::JsonStringToMessage(*json, msg, parse); !s.ok()) {
       JsonError e = SplitJsonError(std::string(s.message()));
       if (route.body != "*") {  // the body was wrapped as {"<field>": ...}
         e.field = e.field.empty() ? route.body : e.field;
@@ -943,7 +955,7 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
   }
   for (size_t i = 0; i < bindings.size(); ++i) {
     const PathBinding& b = bindings[i];
-    if (auto s = SetPath(msg.get(), route.variable_fields[i], b.value); !s.ok()) {
+    if (auto s = SetPath(msg, route.variable_fields[i], b.value); !s.ok()) {
       bad_request(absl::StrCat("path parameter ", b.field_path), s.message(), b.field_path);
       return;
     }
@@ -981,7 +993,7 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
       bad_request(absl::StrCat("query parameter ", *key), "given twice", *key);
       return;
     }
-    if (auto s = SetPath(msg.get(), *fields, *value); !s.ok()) {
+    if (auto s = SetPath(msg, *fields, *value); !s.ok()) {
       bad_request(absl::StrCat("query parameter ", *key), s.message(), name);
       return;
     }
@@ -1007,13 +1019,13 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
                       "empty entity tag (send the etag the resource was read with, or *)", "etag");
           return;
         }
-        msg->GetReflection()->SetString(msg.get(), etag, std::string(tag));
+        msg->GetReflection()->SetString(msg, etag, std::string(tag));
       }
     }
   }
 
   if (route.direct) {
-    HandleDirect(route, *msg, request, sink);
+    HandleDirect(route, *msg, arena, request, sink);
     return;
   }
 
@@ -1044,8 +1056,8 @@ void Router::HandleApi(const Route& route, std::vector<PathBinding> bindings,
                    stub, route.grpc_path, inflight_);
 }
 
-void Router::HandleDirect(const Route& route, const pb::Message& in, const HttpRequest& request,
-                          const std::shared_ptr<ResponseSink>& sink) {
+void Router::HandleDirect(const Route& route, const pb::Message& in, pb::Arena& arena,
+                          const HttpRequest& request, const std::shared_ptr<ResponseSink>& sink) {
   {
     std::lock_guard lock(inflight_->mu);  // the same 503 as a gRPC call refused by Inflight::Add
     if (inflight_->stopping) {
@@ -1053,14 +1065,9 @@ void Router::HandleDirect(const Route& route, const pb::Message& in, const HttpR
       return;
     }
   }
-  // The response lives on an arena whose first block is this frame's (decision 1363): building
-  // x1's Drive takes ~15 sub-messages and strings, each a malloc and a free on the heap. Nothing
-  // keeps the message: UnaryResponse copies what it prints or caches before the arena goes.
-  alignas(std::max_align_t) char block[kDirectArenaBlock];
-  pb::ArenaOptions arena_options;
-  arena_options.initial_block = block;
-  arena_options.initial_block_size = sizeof(block);
-  pb::Arena arena(arena_options);
+  // The response lives on the request's stack-backed arena (decision 1363): building x1's Drive
+  // takes ~15 sub-messages and strings, each a malloc and a free on the heap. Nothing keeps the
+  // message: UnaryResponse copies what it prints or caches before the arena goes.
   pb::Message* out = route.response_prototype->New(&arena);
   const grpc::Status status = route.direct(request, in, out);
   sink->OnResponse(UnaryResponse(status, *out, route.response_body, route.json_cache.get()));

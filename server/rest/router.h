@@ -18,6 +18,7 @@
 #include "server/rest/path_template.h"
 
 namespace google::protobuf {
+class Arena;
 class FieldDescriptor;
 class Message;
 class MethodDescriptor;
@@ -151,6 +152,8 @@ struct Route {
   std::string grpc_path;  // "/drivegw.v1.DriveService/MoveAbsolute"
   bool server_streaming = false;
   DirectUnary direct;  // set: served by RouterOptions::direct_unary, not over gRPC
+  // The input type's generated prototype, looked up once (decision 1364).
+  const google::protobuf::Message* request_prototype = nullptr;
   // Direct routes: the output type's generated prototype, looked up once (decision 1363).
   const google::protobuf::Message* response_prototype = nullptr;
   // Per path variable, in path.variables() order (the order Match binds them): its request
@@ -189,7 +192,8 @@ class Router {
   void HandleApi(const Route& route, std::vector<PathBinding> bindings, std::string_view query,
                  HttpRequest& request, const std::shared_ptr<ResponseSink>& sink) noexcept;
   void HandleDirect(const Route& route, const google::protobuf::Message& in,
-                    const HttpRequest& request, const std::shared_ptr<ResponseSink>& sink);
+                    google::protobuf::Arena& arena, const HttpRequest& request,
+                    const std::shared_ptr<ResponseSink>& sink);
   void HandleHealth(const std::shared_ptr<ResponseSink>& sink) noexcept;
   HttpResponse ServeStatic(std::string_view path) const;
 

@@ -144,56 +144,82 @@ TEST(PathTemplateMatch, Specificity_LiteralsAndVerbRankHigher) {
   EXPECT_GT(MustParse("/v1/drives/{id}").Specificity(), MustParse("/v1/{a}/{b}").Specificity());
 }
 
+// Templates and request paths the Fits tests try in every combination.
+constexpr const char* kFitTemplates[] = {"/v1/drives",
+                                         "/v1/{name=drives/*}",
+                                         "/v1/{name=drives/*}:enable",
+                                         "/v1/{name=drives/*/commands/*}",
+                                         "/v1/{name=drives/*}/parameters/{parameter_id}",
+                                         "/v1/drives:watch",
+                                         "/files/**",
+                                         "/v1/{path=files/**}",
+                                         "/v1/*/x/{id}",
+                                         "/v1/a%2Fb"};
+constexpr const char* kFitPaths[] = {"/v1/drives",
+                                     "/v1/drives/",
+                                     "/v1/drives/x1",
+                                     "/v1/drives/x%31",
+                                     "/v1/drives/x%zz",
+                                     "/v1/drives/x%2",
+                                     "/v1/drives/x1:enable",
+                                     "/v1/drives/x1:enabl",
+                                     "/v1/drives/x1%3Aenable",
+                                     "/v1/drives:watch",
+                                     "/v1/drives/x1/commands/7",
+                                     "/v1/drives//commands/7",
+                                     "/v1/drives/x1/parameters/1234",
+                                     "/v1/drives/x1/parameters/%zz",
+                                     "/files",
+                                     "/files/",
+                                     "/files/a/b/c",
+                                     "/files/a/%zz",
+                                     "/v1/files",
+                                     "/v1/files/a/b%2Fc",
+                                     "/v1/files/a/%g0",
+                                     "/v1/q/x/7",
+                                     "/v1/%zz/x/7",
+                                     "/v1/q/x/%zz",
+                                     "/v1/a%2Fb",
+                                     "/v1/a%2fb",
+                                     "/v1/a/b",
+                                     "",
+                                     "v1/drives",
+                                     "/",
+                                     "/v1/dr%69ves",
+                                     "/v1/drives/x1:",
+                                     "/v1/drives/x1:a:enable",
+                                     "/v1/a:b/drives:watch",
+                                     "/v1/drives/x1:enable/x"};
 // Routing ranks with Fits and binds with Match (router.cpp): they must accept the same paths.
 TEST(PathTemplateFits, EveryTemplateAndPath_SameAnswerAsMatch) {
-  const char* templates[] = {"/v1/drives",
-                             "/v1/{name=drives/*}",
-                             "/v1/{name=drives/*}:enable",
-                             "/v1/{name=drives/*/commands/*}",
-                             "/v1/{name=drives/*}/parameters/{parameter_id}",
-                             "/v1/drives:watch",
-                             "/files/**",
-                             "/v1/{path=files/**}",
-                             "/v1/*/x/{id}",
-                             "/v1/a%2Fb"};
-  const char* paths[] = {"/v1/drives",
-                         "/v1/drives/",
-                         "/v1/drives/x1",
-                         "/v1/drives/x%31",
-                         "/v1/drives/x%zz",
-                         "/v1/drives/x%2",
-                         "/v1/drives/x1:enable",
-                         "/v1/drives/x1:enabl",
-                         "/v1/drives/x1%3Aenable",
-                         "/v1/drives:watch",
-                         "/v1/drives/x1/commands/7",
-                         "/v1/drives//commands/7",
-                         "/v1/drives/x1/parameters/1234",
-                         "/v1/drives/x1/parameters/%zz",
-                         "/files",
-                         "/files/",
-                         "/files/a/b/c",
-                         "/files/a/%zz",
-                         "/v1/files",
-                         "/v1/files/a/b%2Fc",
-                         "/v1/files/a/%g0",
-                         "/v1/q/x/7",
-                         "/v1/%zz/x/7",
-                         "/v1/q/x/%zz",
-                         "/v1/a%2Fb",
-                         "/v1/a%2fb",
-                         "/v1/a/b",
-                         "",
-                         "v1/drives",
-                         "/",
-                         "/v1/dr%69ves",
-                         "/v1/drives/x1:"};
-  for (const char* text : templates) {
+  for (const char* text : kFitTemplates) {
     const PathTemplate t = MustParse(text);
-    for (const char* path : paths) {
+    for (const char* path : kFitPaths) {
       EXPECT_EQ(t.Fits(path), t.Match(path).has_value()) << text << " vs " << path;
     }
   }
+}
+
+// The router skips a template with a verb unless the path's PathVerb equals it (decision 1364):
+// that must never skip a template that fits.
+TEST(PathTemplateFits, TemplateWithVerb_FitsOnlyPathsOfThatVerb) {
+  for (const char* text : kFitTemplates) {
+    const PathTemplate t = MustParse(text);
+    if (t.verb().empty()) continue;
+    for (const char* path : kFitPaths) {
+      if (t.Fits(path)) {
+        EXPECT_EQ(PathVerb(path), t.verb()) << text << " vs " << path;
+      }
+    }
+  }
+  EXPECT_EQ(PathVerb("/v1/drives/x1:enable"), "enable");
+  EXPECT_EQ(PathVerb("/v1/drives/x1:a:enable"), "enable");
+  EXPECT_EQ(PathVerb("/v1/drives:watch"), "watch");
+  EXPECT_EQ(PathVerb("/v1/a:b/drives"), "");
+  EXPECT_EQ(PathVerb("/v1/drives/x1%3Aenable"), "");
+  EXPECT_EQ(PathVerb("/v1/drives/x1:"), "");
+  EXPECT_EQ(PathVerb("/v1/drives/x1"), "");
+  EXPECT_EQ(PathVerb(""), "");
 }
 
 TEST(PercentDecode, Escapes_DecodedOrRejected) {

@@ -116,6 +116,40 @@ TEST_F(RestServerTest, Pipelined_ThreeRequests_AnsweredInOrder) {
   EXPECT_EQ(json::parse(r3->body)["name"], "drives/x2/commands/1");
 }
 
+// The session writes every whole response's head into one buffer it reuses (decision 1365): a
+// longer head (405 with Allow) followed by shorter ones on the same connection, pipelined and
+// one by one, must give each response its own head and body, nothing of the one before.
+TEST_F(RestServerTest, KeepAlive_LongerHeadThenShorterOnes_NoBytesOfThePreviousResponse) {
+  HttpClient c(server_->port());
+  ASSERT_TRUE(
+      c.Send(std::string("PUT /v1/drives HTTP/1.1\r\nHost: a\r\nContent-Length: 0\r\n\r\n") +
+             "GET /v1/nope HTTP/1.1\r\nHost: a\r\n\r\n"));
+  auto r1 = c.Read();
+  auto r2 = c.Read();
+  ASSERT_TRUE(r1 && r2);
+  EXPECT_EQ(r1->status, 405);
+  EXPECT_EQ(r1->header("allow"), "GET");
+  EXPECT_EQ(r2->status, 404);
+  EXPECT_EQ(r2->header("allow"), "");
+  EXPECT_EQ(r2->headers.size(), 3u);  // server, content-type, content-length
+  EXPECT_EQ(r2->header("server"), "drivegw");
+  EXPECT_EQ(r2->header("content-type"), "application/json");
+  EXPECT_EQ(json::parse(r2->body)["message"], "no route or file for GET /v1/nope");
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(c.SendRequest("GET", "/v1/drives/x1"));
+    auto r = c.Read();
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+    EXPECT_EQ(r->headers.size(), 3u);
+    EXPECT_EQ(json::parse(r->body)["name"], "drives/x1");
+  }
+  ASSERT_TRUE(c.SendRequest("GET", "/v1/nope2"));
+  auto r3 = c.Read();
+  ASSERT_TRUE(r3);
+  EXPECT_EQ(r3->status, 404);
+  EXPECT_EQ(json::parse(r3->body)["message"], "no route or file for GET /v1/nope2");
+}
+
 TEST_F(RestServerTest, Post_MoveAbsolute_ClientAddressReachesService) {
   HttpClient c(server_->port());
   ASSERT_TRUE(c.SendRequest("POST", "/v1/drives/x1:moveAbsolute",
