@@ -338,9 +338,15 @@ TEST_F(GatewayE2eTest, Start_DatabaseDamagedBehindAValidHeader_DataLossNamingThe
   gw_.reset();  // closes the database (its WAL is checkpointed into the file)
   const std::filesystem::path db = std::filesystem::path(data_dir_) / "drivegw.db";
   const auto size = std::filesystem::file_size(db);
-  ASSERT_GT(size, 4 * 4096u) << "too small to damage behind the header";
   std::vector<char> original(size);
   std::ifstream(db, std::ios::binary).read(original.data(), static_cast<std::streamsize>(size));
+  // The file's page size (header bytes 16-17, big-endian; decision 1486 makes it 2048 for a new
+  // database): the damage starts behind the first page (the schema) or covers the last one.
+  ASSERT_GT(size, 18u);
+  const std::uintmax_t page = (static_cast<unsigned char>(original[16]) << 8) |
+                              static_cast<unsigned char>(original[17]);
+  ASSERT_GE(page, 512u);
+  ASSERT_GT(size, 4 * page) << "too small to damage behind the header";
   // Overwrites [from, size) with seeded noise, as a torn write or a bad sector would leave it.
   auto damage = [&](std::uintmax_t from) {
     std::ofstream(db, std::ios::binary | std::ios::trunc)
@@ -351,7 +357,7 @@ TEST_F(GatewayE2eTest, Start_DatabaseDamagedBehindAValidHeader_DataLossNamingThe
     for (auto i = from; i < size; ++i) f.put(static_cast<char>(noise()));
   };
   const std::string prefix = "data_dir: database '" + db.string() + "' ";
-  for (const std::uintmax_t from : {std::uintmax_t{4096}, size - 4096}) {
+  for (const std::uintmax_t from : {page, size - page}) {
     SCOPED_TRACE(from);
     damage(from);
     char header[16] = {};
@@ -363,7 +369,7 @@ TEST_F(GatewayE2eTest, Start_DatabaseDamagedBehindAValidHeader_DataLossNamingThe
     const std::string message(refused.status().message());
     EXPECT_EQ(message.rfind(prefix, 0), 0u) << message;
     EXPECT_NE(message.find("restore it from a backup"), std::string::npos) << message;
-    if (from != 4096) {  // Open succeeds on this one: the check itself found it
+    if (from != page) {  // Open succeeds on this one: the check itself found it
       EXPECT_NE(message.find("fails PRAGMA quick_check: "), std::string::npos) << message;
     }
   }
